@@ -1,0 +1,102 @@
+// The static memory map: every large buffer, its size, derived from a board's capacities.
+// The same table sizes the arena at compile time (checked against the board's RAM budget),
+// carves it at start-up and is printed by `edgefuse memmap --board NAME`.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "edgefuse/core/image.hpp"
+#include "edgefuse/core/status.hpp"
+#include "edgefuse/math/pose.hpp"
+#include "edgefuse/memory/capacities.hpp"
+#include "edgefuse/tsdf/extract.hpp"
+#include "edgefuse/tsdf/volume.hpp"
+
+namespace edgefuse {
+
+enum class Region : int {
+  kVoxelTsdf,
+  kVoxelWeight,
+  kVoxelColour,
+  kVoxelColourWeight,
+  kBrickFlags,
+  kBrickList,
+  kDepthFrames,     //!< raw depth per sensor (uint16)
+  kColourFrames,    //!< registered RGB per sensor
+  kRayNorms,        //!< |ray| per pixel per sensor
+  kRaycastDepth,    //!< model depth per sensor (float)
+  kRaycastVertex,   //!< model vertices per sensor
+  kRaycastNormal,   //!< model normals per sensor
+  kRaycastColour,   //!< model colour per sensor
+  kSurfacePoints,   //!< extracted / fused cloud
+  kMeshScratch,     //!< marching-cubes slice tables
+  kCount
+};
+
+struct MemoryRegion {
+  const char* name;
+  uint64_t bytes;
+};
+
+struct MemoryMap {
+  MemoryRegion regions[int(Region::kCount)];
+  uint64_t total_bytes;  //!< including alignment padding
+};
+
+inline constexpr std::size_t kRegionAlign = 64;  //!< every region starts on a cache line
+
+constexpr uint64_t align_up(uint64_t v, uint64_t a) { return (v + a - 1) / a * a; }
+
+//! The memory map of a board.
+constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
+  const uint64_t voxels = uint64_t(c.volume_dim) * c.volume_dim * c.volume_dim;
+  const uint64_t bricks = voxels / kBrickVoxels;
+  const uint64_t pixels = uint64_t(c.image_width_max) * c.image_height_max * c.sensors_max;
+  MemoryMap m{};
+  auto set = [&m](Region r, const char* name, uint64_t bytes) { m.regions[int(r)] = MemoryRegion{name, bytes}; };
+  set(Region::kVoxelTsdf, "voxel tsdf (int16)", voxels * sizeof(int16_t));
+  set(Region::kVoxelWeight, "voxel weight (uint8)", voxels * sizeof(uint8_t));
+  set(Region::kVoxelColour, "voxel colour (3 x uint8)", c.colour ? voxels * sizeof(Rgb8) : 0);
+  set(Region::kVoxelColourWeight, "voxel colour weight (uint8)", c.colour ? voxels : 0);
+  set(Region::kBrickFlags, "brick flags", bricks);
+  set(Region::kBrickList, "brick work list", bricks * sizeof(uint32_t));
+  set(Region::kDepthFrames, "depth frames", pixels * sizeof(uint16_t));
+  set(Region::kColourFrames, "colour frames", pixels * sizeof(Rgb8));
+  set(Region::kRayNorms, "ray norm maps", pixels * sizeof(float));
+  set(Region::kRaycastDepth, "raycast depth", pixels * sizeof(float));
+  set(Region::kRaycastVertex, "raycast vertex", pixels * sizeof(Vec3f));
+  set(Region::kRaycastNormal, "raycast normal", pixels * sizeof(Vec3f));
+  set(Region::kRaycastColour, "raycast colour", pixels * sizeof(Rgba8));
+  set(Region::kSurfacePoints, "surface points", uint64_t(c.points_max) * sizeof(SurfacePoint));
+  set(Region::kMeshScratch, "mesh slice tables",
+      uint64_t(MeshScratch::entries_for(c.volume_dim)) * sizeof(uint32_t));
+  uint64_t total = 0;
+  for (const MemoryRegion& r : m.regions) total += align_up(r.bytes, kRegionAlign);
+  m.total_bytes = total;
+  return m;
+}
+
+//! Views of every region of one board's arena, carved once at start-up.
+struct CoreBuffers {
+  VoxelStorage voxels;
+  uint16_t* depth_frames = nullptr;   //!< sensors_max images of image_*_max
+  Rgb8* colour_frames = nullptr;
+  float* ray_norms = nullptr;         //!< float or Fixed (both 4 bytes)
+  float* raycast_depth = nullptr;
+  Vec3f* raycast_vertex = nullptr;
+  Vec3f* raycast_normal = nullptr;
+  Rgba8* raycast_colour = nullptr;
+  SurfacePoint* points = nullptr;
+  MeshScratch mesh_scratch;
+  std::size_t pixels_per_sensor = 0;  //!< stride between the sensors' images in each region
+};
+
+//! Splits `arena` (at least make_memory_map(c).total_bytes, 64-byte aligned) into the regions.
+//! \param c the board's capacities
+//! \param arena base of the static arena
+//! \param arena_bytes its size
+//! \param out views of the regions
+Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_bytes, CoreBuffers& out);
+
+}  // namespace edgefuse

@@ -1,0 +1,50 @@
+// Extraction of the fused surface: a point cloud of zero crossings and a marching-cubes mesh.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "edgefuse/core/image.hpp"
+#include "edgefuse/core/status.hpp"
+#include "edgefuse/math/pose.hpp"
+#include "edgefuse/tsdf/volume.hpp"
+
+namespace edgefuse {
+
+struct SurfacePoint {
+  Vec3f position;  //!< world frame, metres
+  Vec3f normal;    //!< unit, pointing out of the surface (towards free space)
+  Rgba8 colour;    //!< a = 0: never seen in colour
+};
+
+//! Every zero crossing of the TSDF along the voxel grid's x, y and z edges (both voxels observed,
+//! both inside the truncation band), linearly interpolated: a smooth, evenly spaced cloud.
+//! \param volume the space
+//! \param out output buffer
+//! \param capacity its size
+//! \param count number written
+//! \return kOutputTruncated when more points exist than fit (the first `capacity` are written)
+Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t capacity, std::size_t& count);
+
+//! Receives the mesh as it is produced (the host writes it to a file; the board may count it).
+class MeshSink {
+ public:
+  virtual ~MeshSink() = default;
+  //! \return the new vertex's index (0, 1, 2, ... in call order)
+  virtual uint32_t add_vertex(const Vec3f& position, const Vec3f& normal, const Rgba8& colour) = 0;
+  //! Counter-clockwise seen from outside (normals point out).
+  virtual void add_triangle(uint32_t a, uint32_t b, uint32_t c) = 0;
+};
+
+//! Scratch for marching cubes: two z-slices of vertex ids, 3 edges per voxel.
+struct MeshScratch {
+  uint32_t* edge_ids = nullptr;  //!< 2 * 3 * capacity_dim^2 entries
+  std::size_t capacity = 0;      //!< entries available
+  static constexpr std::size_t entries_for(int dim) { return 2u * 3u * std::size_t(dim) * std::size_t(dim); }
+};
+
+//! Marching cubes over the observed cells (all 8 corners observed); vertices are shared between
+//! neighbouring cells, normals from the TSDF gradient, colour interpolated.
+Status extract_mesh(const TsdfVolume& volume, MeshScratch scratch, MeshSink& sink);
+
+}  // namespace edgefuse

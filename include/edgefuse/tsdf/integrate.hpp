@@ -1,0 +1,88 @@
+// Push (paper Fig. 3): integrate one depth image, with optional registered RGB, at a pose.
+//
+// The update of each voxel follows eq. (1)-(2): the voxel centre v is projected into the image at
+// (u, v); the z-depth there is interpolated bilinearly from the 4 nearest pixels (nearest pixel at
+// the border or where a neighbour is missing; no update where the 4 span a depth jump larger than
+// the truncation, which would otherwise smear foreground onto background at silhouettes). The
+// measurement along v's own ray is m = z |v_c| / v_c.z (v_c: v in the camera frame), and
+// d = m - |v_c| (eq. 1), then
+//   d <= -rho                 : no update (occluded)
+//   otherwise                 : tsdf <- (W tsdf + w(d) min(1, d/trunc)) / (W + w(d)), W <- min(W + w, cap)
+// with w(d) the Bylow weight (weight.hpp) times the sensor's trust factor. Colour is fused with its
+// own weight where |d| < colour band.
+//
+// Work is split in three steps so that a caller owning threads can run step 2 in parallel:
+//   1. select_bricks: frustum culling -> list of bricks the image can touch (volume.brick_list())
+//   2. integrate_bricks<Real>(..., begin, end) over slices of that list (bricks are disjoint)
+//   3. finish_integration: propagates surface flags to neighbouring bricks (serial, cheap)
+// integrate() does all three on the calling thread.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "edgefuse/core/image.hpp"
+#include "edgefuse/core/status.hpp"
+#include "edgefuse/math/pose.hpp"
+#include "edgefuse/math/real.hpp"
+#include "edgefuse/sensor/pinhole.hpp"
+#include "edgefuse/tsdf/volume.hpp"
+
+namespace edgefuse {
+
+//! One depth frame to push.
+struct DepthFrame {
+  ImageView<const uint16_t> depth;  //!< raw z-depth, metres = raw / intrinsics.depth_scale, 0 = none
+  ImageView<const Rgb8> colour;     //!< optional, pixel-registered to depth (empty: no colour)
+};
+
+//! Everything integrate_bricks needs, converted once per frame to the kernel scalar.
+template <class Real>
+struct IntegrationJob {
+  Real R[9];                 //!< rotation of T_cam_world, row-major
+  Real t[3];                 //!< translation of T_cam_world
+  Real fx, fy, cx, cy;
+  Real min_z, max_z;         //!< valid measured z-depth
+  DepthScale<Real> depth;    //!< raw depth -> metres
+  Real trunc, inv_trunc;     //!< truncation and its inverse
+  Real eps, rho;             //!< weight band
+  Real band_to_index;        //!< 256 / (rho - eps): weight table index per metre behind -eps
+  Real colour_band;
+  Real voxel;
+  Real origin[3];
+  uint32_t trust_q8 = 256;   //!< sensor trust factor in 1/256 (256 = full)
+  uint32_t jump_raw = 0;     //!< raw depth difference counted as a discontinuity (= trunc)
+  DepthFrame frame;
+  int width = 0, height = 0;
+};
+
+//! Builds the per-frame job. Fails when sizes disagree or parameters are out of range.
+//! \param volume the space (initialised)
+//! \param intr intrinsics of the depth image
+//! \param frame depth (and optional colour) of this frame
+//! \param T_world_cam sensor-to-world pose of this frame
+//! \param trust sensor trust factor in (0, 1] scaling the weight (1 = full)
+//! \param job output
+template <class Real>
+Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& intr, const DepthFrame& frame,
+                           const Pose& T_world_cam, float trust, IntegrationJob<Real>& job);
+
+//! Step 1: frustum culling. Writes the selected bricks to volume.brick_list(); returns how many.
+//! \param volume the space
+//! \param intr intrinsics (image bounds and range limits)
+//! \param T_world_cam sensor pose
+std::size_t select_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam);
+
+//! Step 2: updates bricks list[begin, end) of volume.brick_list(). Thread-safe for disjoint ranges.
+template <class Real>
+void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::size_t begin, std::size_t end);
+
+//! Step 3: marks the neighbours of surface bricks among the first `count` listed bricks.
+void finish_integration(TsdfVolume& volume, std::size_t count);
+
+//! All three steps on the calling thread.
+template <class Real>
+Status integrate(TsdfVolume& volume, const PinholeIntrinsics& intr, const DepthFrame& frame,
+                 const Pose& T_world_cam, float trust = 1.0f);
+
+}  // namespace edgefuse

@@ -1,0 +1,38 @@
+#include "edgefuse/memory/memmap.hpp"
+
+namespace edgefuse {
+
+Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_bytes, CoreBuffers& out) {
+  const MemoryMap map = make_memory_map(c);
+  if (arena == nullptr || arena_bytes < map.total_bytes) return Status::kCapacityExceeded;
+  if (reinterpret_cast<uintptr_t>(arena) % kRegionAlign != 0) return Status::kInvalidArgument;
+  void* base[int(Region::kCount)] = {};
+  uint64_t offset = 0;
+  for (int i = 0; i < int(Region::kCount); ++i) {
+    base[i] = map.regions[i].bytes ? arena + offset : nullptr;
+    offset += align_up(map.regions[i].bytes, kRegionAlign);
+  }
+  auto at = [&base](Region r) { return base[int(r)]; };
+  out = CoreBuffers{};
+  out.voxels.tsdf = static_cast<int16_t*>(at(Region::kVoxelTsdf));
+  out.voxels.weight = static_cast<uint8_t*>(at(Region::kVoxelWeight));
+  out.voxels.colour = static_cast<Rgb8*>(at(Region::kVoxelColour));
+  out.voxels.colour_weight = static_cast<uint8_t*>(at(Region::kVoxelColourWeight));
+  out.voxels.brick_flags = static_cast<uint8_t*>(at(Region::kBrickFlags));
+  out.voxels.brick_list = static_cast<uint32_t*>(at(Region::kBrickList));
+  out.voxels.capacity_dim = c.volume_dim;
+  out.depth_frames = static_cast<uint16_t*>(at(Region::kDepthFrames));
+  out.colour_frames = static_cast<Rgb8*>(at(Region::kColourFrames));
+  out.ray_norms = static_cast<float*>(at(Region::kRayNorms));
+  out.raycast_depth = static_cast<float*>(at(Region::kRaycastDepth));
+  out.raycast_vertex = static_cast<Vec3f*>(at(Region::kRaycastVertex));
+  out.raycast_normal = static_cast<Vec3f*>(at(Region::kRaycastNormal));
+  out.raycast_colour = static_cast<Rgba8*>(at(Region::kRaycastColour));
+  out.points = static_cast<SurfacePoint*>(at(Region::kSurfacePoints));
+  out.mesh_scratch.edge_ids = static_cast<uint32_t*>(at(Region::kMeshScratch));
+  out.mesh_scratch.capacity = MeshScratch::entries_for(c.volume_dim);
+  out.pixels_per_sensor = std::size_t(c.image_width_max) * std::size_t(c.image_height_max);
+  return Status::kOk;
+}
+
+}  // namespace edgefuse

@@ -1,0 +1,50 @@
+#include "edgefuse/tsdf/volume.hpp"
+
+#include <cstring>
+
+namespace edgefuse {
+
+Status TsdfVolume::init(const VoxelStorage& storage, int dim, const Vec3f& origin_m, const TsdfParams& params) {
+  if (storage.tsdf == nullptr || storage.weight == nullptr || storage.brick_flags == nullptr ||
+      storage.brick_list == nullptr)
+    return Status::kInvalidArgument;
+  if ((storage.colour == nullptr) != (storage.colour_weight == nullptr)) return Status::kInvalidArgument;
+  if (dim <= 0 || dim % kBrickSide != 0) return Status::kInvalidArgument;
+  if (dim > storage.capacity_dim) return Status::kCapacityExceeded;
+  if (!(params.voxel_m > 0) || !(params.trunc_m >= params.voxel_m) || !params.weight.valid() ||
+      params.weight.rho_m > params.trunc_m || params.max_weight == 0 || !(params.colour_band_m >= 0) ||
+      !origin_m.allFinite())
+    return Status::kInvalidArgument;
+  s_ = storage;
+  dim_ = dim;
+  origin_m_ = origin_m;
+  params_ = params;
+  weight_table_.build(params.weight);
+  clear();
+  return Status::kOk;
+}
+
+void TsdfVolume::clear() {
+  if (!initialised()) return;
+  const std::size_t n = voxel_count();
+  for (std::size_t i = 0; i < n; ++i) s_.tsdf[i] = kTsdfMax;
+  std::memset(s_.weight, 0, n);
+  if (s_.colour != nullptr) {
+    std::memset(static_cast<void*>(s_.colour), 0, n * sizeof(Rgb8));
+    std::memset(s_.colour_weight, 0, n);
+  }
+  std::memset(s_.brick_flags, 0, brick_count());
+}
+
+std::size_t TsdfVolume::observed_voxels() const {
+  std::size_t count = 0;
+  const std::size_t bricks = brick_count();
+  for (std::size_t b = 0; b < bricks; ++b) {
+    if (!(s_.brick_flags[b] & kBrickObserved)) continue;
+    const uint8_t* w = s_.weight + b * kBrickVoxels;
+    for (int i = 0; i < kBrickVoxels; ++i) count += w[i] != 0;
+  }
+  return count;
+}
+
+}  // namespace edgefuse

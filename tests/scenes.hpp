@@ -1,0 +1,68 @@
+// Analytic scenes drawn by the tests: planes, spheres and boxes rendered exactly into depth
+// (and colour) images, and static storage for small volumes. Setup code: may allocate.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "edgefuse/core/image.hpp"
+#include "edgefuse/math/pose.hpp"
+#include "edgefuse/sensor/pinhole.hpp"
+#include "edgefuse/tsdf/volume.hpp"
+
+namespace edgefuse_test {
+
+using edgefuse::Pose;
+using edgefuse::Vec3f;
+
+struct Primitive {
+  enum Kind { kPlane, kSphere, kBox } kind;
+  Vec3f a;                 //!< plane: unit normal; sphere: centre; box: centre
+  Vec3f b;                 //!< plane: (offset d, -, -) with n.x + d = 0; sphere: (radius, -, -); box: half sizes
+  Pose T_world_box;        //!< box orientation (translation unused: a is the centre)
+  edgefuse::Rgb8 colour;
+};
+
+struct Scene {
+  std::vector<Primitive> items;
+  void add_plane(const Vec3f& n, float d, edgefuse::Rgb8 c = {200, 200, 200});
+  void add_sphere(const Vec3f& centre, float radius, edgefuse::Rgb8 c = {200, 50, 50});
+  void add_box(const Vec3f& centre, const Vec3f& half, const Pose& R, edgefuse::Rgb8 c = {50, 200, 50});
+  //! Nearest hit along origin + t dir (t > 0): distance t, the unit normal and the item; false if none.
+  bool intersect(const Vec3f& origin, const Vec3f& dir, float& t, Vec3f& normal, int& item) const;
+};
+
+//! Exact z-depth image (raw = round(z * depth_scale), 0 = no hit or outside the range limits) and,
+//! optionally, colour. Also returns the incidence angle cosine per pixel (for masking grazing views).
+void render(const Scene& scene, const edgefuse::PinholeIntrinsics& intr, const Pose& T_world_cam,
+            std::vector<uint16_t>& depth, std::vector<edgefuse::Rgb8>* colour = nullptr,
+            std::vector<float>* cos_incidence = nullptr, std::vector<int>* item = nullptr);
+
+//! Camera at eye looking at target, image y roughly along `down`.
+Pose look_at(const Vec3f& eye, const Vec3f& target, const Vec3f& down = Vec3f(0, 1, 0));
+
+//! Static buffers for a test volume of Dim^3 voxels (with colour).
+template <int Dim>
+struct VolumeStorage {
+  static constexpr std::size_t kVoxels = std::size_t(Dim) * Dim * Dim;
+  static constexpr std::size_t kBricks = kVoxels / edgefuse::kBrickVoxels;
+  int16_t tsdf[kVoxels];
+  uint8_t weight[kVoxels];
+  edgefuse::Rgb8 colour[kVoxels];
+  uint8_t colour_weight[kVoxels];
+  uint8_t flags[kBricks];
+  uint32_t list[kBricks];
+  edgefuse::VoxelStorage view(bool with_colour = true) {
+    edgefuse::VoxelStorage s;
+    s.tsdf = tsdf;
+    s.weight = weight;
+    s.colour = with_colour ? colour : nullptr;
+    s.colour_weight = with_colour ? colour_weight : nullptr;
+    s.brick_flags = flags;
+    s.brick_list = list;
+    s.capacity_dim = Dim;
+    return s;
+  }
+};
+
+}  // namespace edgefuse_test

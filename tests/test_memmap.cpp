@@ -1,0 +1,54 @@
+// The static memory map: sizes derive from the board capacities, the build board fits its budget,
+// the arena carves into aligned, disjoint regions.
+#include <cstdint>
+#include <cstring>
+
+#include "edgefuse/memory/arena.hpp"
+#include "test_support.hpp"
+
+using namespace edgefuse;
+
+TEST_GROUP(MemMap){};
+
+TEST(MemMap, VoxelRegionsAreCompact) {
+  const BoardCapacities* b = find_board("host-sim");
+  CHECK(b != nullptr);
+  const MemoryMap m = make_memory_map(*b);
+  const uint64_t voxels = 256ull * 256 * 256;
+  CHECK_EQUAL(256, b->volume_dim);
+  CHECK_EQUAL(voxels * 2, m.regions[int(Region::kVoxelTsdf)].bytes);
+  CHECK_EQUAL(voxels, m.regions[int(Region::kVoxelWeight)].bytes);
+  CHECK_EQUAL(voxels * 3, m.regions[int(Region::kVoxelColour)].bytes);
+  const BoardCapacities* am = find_board("am335x");
+  CHECK(am != nullptr);
+  CHECK_FALSE(am->colour);
+  CHECK_EQUAL(128, am->volume_dim);
+  CHECK_EQUAL(0u, make_memory_map(*am).regions[int(Region::kVoxelColour)].bytes);
+  CHECK(find_board("no-such-board") == nullptr);
+}
+
+TEST(MemMap, EveryBoardFitsItsBudget) {
+  for (int i = 0; i < board_count(); ++i) {
+    const BoardCapacities& b = board_at(i);
+    CHECK(make_memory_map(b).total_bytes <= b.ram_budget_bytes);
+  }
+  CHECK(static_arena_bytes() >= make_memory_map(build_board()).total_bytes);
+}
+
+TEST(MemMap, CarvedRegionsAreAlignedAndDisjoint) {
+  CoreBuffers buf;
+  CHECK(carve_memory(build_board(), static_arena(), static_arena_bytes(), buf) == Status::kOk);
+  const uintptr_t lo = reinterpret_cast<uintptr_t>(static_arena());
+  const uintptr_t hi = lo + static_arena_bytes();
+  const void* ptrs[] = {buf.voxels.tsdf, buf.voxels.weight, buf.voxels.brick_flags, buf.voxels.brick_list,
+                        buf.depth_frames, buf.ray_norms, buf.raycast_depth, buf.raycast_vertex, buf.points,
+                        buf.mesh_scratch.edge_ids};
+  for (const void* p : ptrs) {
+    const uintptr_t a = reinterpret_cast<uintptr_t>(p);
+    CHECK(a >= lo && a < hi);
+    CHECK_EQUAL(0u, a % kRegionAlign);
+  }
+  CHECK(reinterpret_cast<uintptr_t>(buf.voxels.weight) >=
+        reinterpret_cast<uintptr_t>(buf.voxels.tsdf) + make_memory_map(build_board()).regions[0].bytes);
+  CHECK(carve_memory(build_board(), static_arena(), 1024, buf) == Status::kCapacityExceeded);
+}
