@@ -8,6 +8,7 @@
 #include "edgefuse/core/image.hpp"
 #include "edgefuse/math/pose.hpp"
 #include "edgefuse/sensor/pinhole.hpp"
+#include "edgefuse/tsdf/frame_scratch.hpp"
 #include "edgefuse/tsdf/volume.hpp"
 
 namespace edgefuse_test {
@@ -62,6 +63,27 @@ struct VolumeStorage {
     s.brick_list = list;
     s.capacity_dim = Dim;
     return s;
+  }
+};
+
+//! Per-sensor buffers of a test: tile scratch and ray norms for images up to 640 x 480.
+template <class Real>
+struct SensorBuffers {
+  static constexpr std::size_t kTiles = edgefuse::FrameScratch::tiles_for(640, 480);
+  edgefuse::DepthTile depth_tiles[kTiles];
+  float model_min_z[kTiles], model_max_z[kTiles];
+  Real norms[640 * 480];
+  edgefuse::FrameScratch scratch() {
+    edgefuse::FrameScratch f;
+    f.depth_tiles = depth_tiles;
+    f.model_min_z = model_min_z;
+    f.model_max_z = model_max_z;
+    f.capacity = kTiles;
+    return f;
+  }
+  edgefuse::ImageView<const Real> ray_norms(const edgefuse::PinholeIntrinsics& c) {
+    edgefuse::build_ray_norms<Real>(c, edgefuse::ImageView<Real>(norms, c.width, c.height));
+    return edgefuse::ImageView<const Real>(norms, c.width, c.height);
   }
 };
 

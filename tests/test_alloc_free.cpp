@@ -15,6 +15,14 @@ using namespace edgefuse_test;
 namespace {
 constexpr int kDim = 64;
 VolumeStorage<kDim> g_storage;
+SensorBuffers<float> g_sensor_float;
+SensorBuffers<Fixed> g_sensor_fixed;
+template <class Real>
+SensorBuffers<Real>& sensor();
+template <>
+SensorBuffers<float>& sensor<float>() { return g_sensor_float; }
+template <>
+SensorBuffers<Fixed>& sensor<Fixed>() { return g_sensor_fixed; }
 SurfacePoint g_points[200000];
 }  // namespace
 
@@ -41,6 +49,8 @@ static void run_steady_state() {
   std::vector<std::vector<Rgb8>> colour(2);
   for (int i = 0; i < 2; ++i) render(scene, cam, poses[std::size_t(i)], depth[std::size_t(i)], &colour[std::size_t(i)]);
   const std::size_t pixels = std::size_t(cam.width) * cam.height;
+  const ImageView<const Real> norms = sensor<Real>().ray_norms(cam);
+  FrameScratch scratch = sensor<Real>().scratch();
   std::vector<float> d(pixels);
   std::vector<Vec3f> vtx(pixels), nrm(pixels);
   std::vector<Rgba8> col(pixels);
@@ -52,8 +62,8 @@ static void run_steady_state() {
     for (int i = 0; i < 2; ++i) {
       const DepthFrame f{{depth[std::size_t(i)].data(), cam.width, cam.height},
                          {colour[std::size_t(i)].data(), cam.width, cam.height}};
-      integrate<Real>(vol, cam, f, poses[std::size_t(i)]);
-      raycast<Real>(vol, cam, poses[std::size_t(i)], maps);
+      integrate<Real>(vol, cam, norms, f, poses[std::size_t(i)], scratch);
+      raycast<Real>(vol, cam, poses[std::size_t(i)], maps, scratch);
     }
   std::size_t count = 0;
   extract_points(vol, g_points, sizeof(g_points) / sizeof(g_points[0]), count);

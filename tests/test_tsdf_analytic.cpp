@@ -20,6 +20,16 @@ namespace {
 constexpr int kDim = 64;
 constexpr float kVoxel = 0.01f;
 VolumeStorage<kDim> g_storage_a, g_storage_b;
+SensorBuffers<float> g_sensor_float;
+SensorBuffers<Fixed> g_sensor_fixed;
+FrameScratch g_scratch = g_sensor_float.scratch();
+
+template <class Real>
+SensorBuffers<Real>& sensor();
+template <>
+SensorBuffers<float>& sensor<float>() { return g_sensor_float; }
+template <>
+SensorBuffers<Fixed>& sensor<Fixed>() { return g_sensor_fixed; }
 
 PinholeIntrinsics camera() {
   PinholeIntrinsics c;
@@ -63,12 +73,14 @@ struct Stats {
 
 template <class Real>
 void fuse(TsdfVolume& vol, const Scene& scene, const PinholeIntrinsics& c, const std::vector<Pose>& poses) {
+  const ImageView<const Real> norms = sensor<Real>().ray_norms(c);
+  FrameScratch scratch = sensor<Real>().scratch();
   for (const Pose& T : poses) {
     std::vector<uint16_t> depth;
     std::vector<Rgb8> colour;
     render(scene, c, T, depth, &colour);
     DepthFrame f{{depth.data(), c.width, c.height}, {colour.data(), c.width, c.height}};
-    CHECK(integrate<Real>(vol, c, f, T) == Status::kOk);
+    CHECK(integrate<Real>(vol, c, norms, f, T, scratch) == Status::kOk);
   }
 }
 
@@ -145,7 +157,7 @@ TEST(TsdfAnalytic, SphereAndPlaneRaycastMatchesTruthWithinATenthOfAVoxel) {
   Maps maps;
   for (const Pose& T : {poses[0], poses[3], look_at(Vec3f(0.05f, -0.03f, 0.02f), Vec3f(0.0f, 0.0f, 0.8f))}) {
     const RaycastMaps m = maps.views(cam);
-    CHECK(raycast<float>(vol, cam, T, m) == Status::kOk);
+    CHECK(raycast<float>(vol, cam, T, m, g_scratch) == Status::kOk);
     Stats s = compare_depth(scene, cam, T, maps.depth, vol);
     std::printf("\n  sphere+plane: %d compared, %d hit, median %.3f mm, p99 %.3f mm, max %.3f mm (45-60 deg: %.3f mm)",
                 s.compared, s.hits, 1e3 * s.percentile(0.5f), 1e3 * s.percentile(0.99f), 1e3 * s.max_err,
@@ -165,7 +177,7 @@ TEST(TsdfAnalytic, TiltedPlaneNormalsAndVerticesAgreeWithTheGeometry) {
   fuse<float>(vol, scene, cam, poses);
   Maps maps;
   const RaycastMaps m = maps.views(cam);
-  CHECK(raycast<float>(vol, cam, poses[1], m) == Status::kOk);
+  CHECK(raycast<float>(vol, cam, poses[1], m, g_scratch) == Status::kOk);
   Stats s = compare_depth(scene, cam, poses[1], maps.depth, vol);
   CHECK(s.compared > 20000);
   CHECK(s.hits >= s.compared * 99 / 100);
@@ -193,7 +205,7 @@ TEST(TsdfAnalytic, BoxFacesAreRecoveredWithinATenthOfAVoxel) {
   fuse<float>(vol, scene, cam, poses);
   Maps maps;
   const RaycastMaps m = maps.views(cam);
-  CHECK(raycast<float>(vol, cam, poses[2], m) == Status::kOk);
+  CHECK(raycast<float>(vol, cam, poses[2], m, g_scratch) == Status::kOk);
   Stats s = compare_depth(scene, cam, poses[2], maps.depth, vol);
   std::printf("\n  box: %d compared, %d hit, median %.3f mm, p95 %.3f mm, p99 %.3f mm, max %.3f mm", s.compared, s.hits,
               1e3 * s.percentile(0.5f), 1e3 * s.percentile(0.95f), 1e3 * s.percentile(0.99f),
@@ -211,7 +223,7 @@ TEST(TsdfAnalytic, ColourIsCarriedFromTheImageToTheRaycast) {
   fuse<float>(vol, scene, cam, poses);
   Maps maps;
   const RaycastMaps m = maps.views(cam);
-  CHECK(raycast<float>(vol, cam, poses[0], m) == Status::kOk);
+  CHECK(raycast<float>(vol, cam, poses[0], m, g_scratch) == Status::kOk);
   const std::size_t centre = std::size_t(cam.height / 2) * cam.width + cam.width / 2;
   CHECK(maps.depth[centre] > 0);
   CHECK_EQUAL(255, maps.colour[centre].a);
@@ -231,21 +243,25 @@ TEST(TsdfAnalytic, FrustumCullingSkipsBricksTheSensorCannotSee) {
 TEST(TsdfAnalytic, EmptySpaceGivesNoHits) {
   Maps maps;
   const RaycastMaps m = maps.views(cam);
-  CHECK(raycast<float>(vol, cam, Pose::identity(), m) == Status::kOk);
+  CHECK(raycast<float>(vol, cam, Pose::identity(), m, g_scratch) == Status::kOk);
   for (float d : maps.depth) CHECK_EQUAL(0.0f, d);
 }
 
 TEST(TsdfAnalytic, MismatchedInputsAreRefused) {
+  const ImageView<const float> norms = g_sensor_float.ray_norms(cam);
   std::vector<uint16_t> depth(100);
   DepthFrame f{{depth.data(), 10, 10}, {}};
-  CHECK(integrate<float>(vol, cam, f, Pose{}) == Status::kInvalidArgument);
+  CHECK(integrate<float>(vol, cam, norms, f, Pose{}, g_scratch) == Status::kInvalidArgument);
   std::vector<uint16_t> full(std::size_t(cam.width) * cam.height);
   DepthFrame g{{full.data(), cam.width, cam.height}, {}};
-  CHECK(integrate<float>(vol, cam, g, Pose{}, 0.0f) == Status::kInvalidArgument);  // trust must be > 0
+  CHECK(integrate<float>(vol, cam, norms, g, Pose{}, g_scratch, 0.0f) == Status::kInvalidArgument);  // trust > 0
+  FrameScratch small = g_scratch;
+  small.capacity = 10;
+  CHECK(integrate<float>(vol, cam, norms, g, Pose{}, small) == Status::kCapacityExceeded);
   Maps maps;
   RaycastMaps m = maps.views(cam);
   m.depth_m.width = 10;
-  CHECK(raycast<float>(vol, cam, Pose{}, m) == Status::kInvalidArgument);
+  CHECK(raycast<float>(vol, cam, Pose{}, m, g_scratch) == Status::kInvalidArgument);
   TsdfVolume other;
   CHECK(other.init(g_storage_b.view(), kDim + 8, Vec3f::Zero(), TsdfParams::defaults_for(kVoxel, 4 * kVoxel)) ==
         Status::kCapacityExceeded);
@@ -263,8 +279,8 @@ TEST(TsdfAnalytic, FixedPointRaycastIsWithinAQuarterVoxelOfFloat) {
   fuse<Fixed>(fixed_vol, scene, cam, poses);
   Maps a, b;
   const RaycastMaps ma = a.views(cam), mb = b.views(cam);
-  CHECK(raycast<float>(vol, cam, poses[4], ma) == Status::kOk);
-  CHECK(raycast<Fixed>(fixed_vol, cam, poses[4], mb) == Status::kOk);
+  CHECK(raycast<float>(vol, cam, poses[4], ma, g_scratch) == Status::kOk);
+  CHECK(raycast<Fixed>(fixed_vol, cam, poses[4], mb, g_scratch) == Status::kOk);
   // Silhouette and grazing pixels (the truth changes primitive nearby, or the surface is seen at
   // more than 60 degrees) may hit either surface depending on the last bit: left out.
   std::vector<uint16_t> truth;

@@ -7,11 +7,24 @@
 namespace edgefuse {
 namespace {
 
+// 2^32 / n rounded up, for n = 1 .. 511: the running average divides by (old + new weight) <= 263
+// without a hardware division per voxel.
+struct Reciprocals {
+  uint32_t v[512] = {};
+  constexpr Reciprocals() {
+    for (uint32_t n = 1; n < 512; ++n) v[n] = uint32_t((uint64_t(1) << 32) / n + 1);
+  }
+};
+constexpr Reciprocals kReciprocals;
+
 // Weighted running average of two integer samples, rounded to nearest (ties away from zero).
+// |num| < 2^24, so num * (2^32/den + 1) >> 32 is the exact quotient up to 2^-8.
 inline int32_t blend(int32_t old_value, int32_t old_weight, int32_t sample, int32_t sample_weight) {
   const int32_t num = old_value * old_weight + sample * sample_weight;
-  const int32_t den = old_weight + sample_weight;
-  return num >= 0 ? (num + den / 2) / den : -((-num + den / 2) / den);
+  const uint32_t den = uint32_t(old_weight + sample_weight);
+  const uint64_t mag = uint64_t(num >= 0 ? num : -num) + den / 2;
+  const int32_t q = int32_t((mag * kReciprocals.v[den]) >> 32);
+  return num >= 0 ? q : -q;
 }
 
 inline uint8_t cap_weight(int32_t w, uint8_t max_weight) { return uint8_t(w > max_weight ? max_weight : w); }
@@ -53,19 +66,102 @@ bool depth_at(const IntegrationJob<Real>& job, Real pu, Real pv, int iu, int iv,
   return true;
 }
 
+// Min / max valid raw depth per 8x8 tile.
+void build_depth_tiles(const ImageView<const uint16_t>& depth, DepthTile* tiles) {
+  const int tx = FrameScratch::tiles_x(depth.width), ty = FrameScratch::tiles_y(depth.height);
+  for (int j = 0; j < ty; ++j)
+    for (int i = 0; i < tx; ++i) {
+      uint32_t lo = 0xffff, hi = 0;
+      bool all = true;
+      const int v_end = (j + 1) * FrameScratch::kTile < depth.height ? (j + 1) * FrameScratch::kTile : depth.height;
+      const int u_end = (i + 1) * FrameScratch::kTile < depth.width ? (i + 1) * FrameScratch::kTile : depth.width;
+      for (int v = j * FrameScratch::kTile; v < v_end; ++v) {
+        const uint16_t* row = depth.row(v);
+        for (int u = i * FrameScratch::kTile; u < u_end; ++u) {
+          const uint32_t x = row[u];
+          if (x == 0) {
+            all = false;
+            continue;
+          }
+          lo = x < lo ? x : lo;
+          hi = x > hi ? x : hi;
+        }
+      }
+      DepthTile& t = tiles[std::size_t(j) * tx + i];
+      t.min_raw = hi == 0 ? 0 : uint16_t(lo);
+      t.max_raw = uint16_t(hi);
+      t.all_valid = all ? 1 : 0;
+    }
+}
+
+enum class BrickClass { kSkip, kFreeSpace, kVoxels };
+
+// Classifies a brick from its 8 corner voxel centres (camera frame) against the depth tiles.
+template <class Real>
+BrickClass classify_brick(const IntegrationJob<Real>& job, const Real c0[3], const Real span[3][3], Real near_z) {
+  const Real one = real_from_int<Real>(1);
+  Real z_lo = c0[2], z_hi = c0[2];
+  Real u_lo = real_from_int<Real>(1 << 20), u_hi = real_from_int<Real>(-(1 << 20));
+  Real v_lo = u_lo, v_hi = u_hi;
+  for (int k = 0; k < 8; ++k) {
+    Real p[3] = {c0[0], c0[1], c0[2]};
+    for (int a = 0; a < 3; ++a)
+      if (k & (1 << a))
+        for (int r = 0; r < 3; ++r) p[r] += span[a][r];
+    if (p[2] < near_z) return BrickClass::kVoxels;  // straddles the sensor plane: no bound
+    const Real inv_z = one / p[2];
+    const Real u = job.fx * (p[0] * inv_z) + job.cx, v = job.fy * (p[1] * inv_z) + job.cy;
+    z_lo = p[2] < z_lo ? p[2] : z_lo;
+    z_hi = p[2] > z_hi ? p[2] : z_hi;
+    u_lo = u < u_lo ? u : u_lo;
+    u_hi = u > u_hi ? u : u_hi;
+    v_lo = v < v_lo ? v : v_lo;
+    v_hi = v > v_hi ? v : v_hi;
+  }
+  // Pixels a voxel of the brick may read (bilinear reaches one pixel further).
+  int a0 = floor_int(u_lo) - 1, a1 = floor_int(u_hi) + 2, b0 = floor_int(v_lo) - 1, b1 = floor_int(v_hi) + 2;
+  if (a1 < 0 || b1 < 0 || a0 >= job.width || b0 >= job.height) return BrickClass::kSkip;
+  const bool inside = a0 >= 0 && b0 >= 0 && a1 < job.width && b1 < job.height;
+  a0 = a0 < 0 ? 0 : a0;
+  b0 = b0 < 0 ? 0 : b0;
+  a1 = a1 >= job.width ? job.width - 1 : a1;
+  b1 = b1 >= job.height ? job.height - 1 : b1;
+  uint32_t lo = 0xffff, hi = 0;
+  bool all = inside;
+  for (int j = b0 / FrameScratch::kTile; j <= b1 / FrameScratch::kTile; ++j)
+    for (int i = a0 / FrameScratch::kTile; i <= a1 / FrameScratch::kTile; ++i) {
+      const DepthTile& t = job.tiles[std::size_t(j) * job.tiles_x + i];
+      all = all && t.all_valid;
+      if (t.max_raw == 0) continue;
+      lo = t.min_raw < lo ? t.min_raw : lo;
+      hi = t.max_raw > hi ? t.max_raw : hi;
+    }
+  if (hi == 0) return BrickClass::kSkip;  // no measurement under the brick
+  const Real z_meas_lo = job.depth.metres(uint16_t(lo)), z_meas_hi = job.depth.metres(uint16_t(hi));
+  // d = (z - p.z) |ray| and |ray| >= 1: behind every measurement by rho -> d < -rho everywhere.
+  if (z_lo - z_meas_hi > job.rho) return BrickClass::kSkip;
+  // In front of every measurement by trunc, every pixel valid and in range: d >= trunc everywhere.
+  if (all && z_meas_lo - z_hi > job.trunc && z_meas_lo >= job.min_z && z_meas_hi <= job.max_z)
+    return BrickClass::kFreeSpace;
+  return BrickClass::kVoxels;
+}
+
 }  // namespace
 
 template <class Real>
-Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& intr, const DepthFrame& frame,
-                           const Pose& T_world_cam, float trust,
+Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& intr, ImageView<const Real> ray_norms,
+                           const DepthFrame& frame, const Pose& T_world_cam, float trust, FrameScratch& scratch,
                            IntegrationJob<Real>& job) {
   if (!volume.initialised()) return Status::kNotInitialised;
   if (intr.validate() != Status::kOk || !(trust > 0.0f) || trust > 1.0f) return Status::kInvalidArgument;
   if (frame.depth.empty() || frame.depth.width != intr.width || frame.depth.height != intr.height)
     return Status::kInvalidArgument;
+  if (ray_norms.empty() || ray_norms.width != intr.width || ray_norms.height != intr.height)
+    return Status::kInvalidArgument;
   if (!frame.colour.empty() && (frame.colour.width != intr.width || frame.colour.height != intr.height))
     return Status::kInvalidArgument;
   if (!T_world_cam.R.allFinite() || !T_world_cam.t.allFinite()) return Status::kInvalidArgument;
+  if (!scratch.fits(intr.width, intr.height)) return Status::kCapacityExceeded;
 
   const Pose T_cam_world = T_world_cam.inverse();
   const TsdfParams& p = volume.params();
@@ -92,7 +188,13 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
   if (job.trust_q8 == 0) job.trust_q8 = 1;
   const float jump = std::round(p.trunc_m * intr.depth_scale);
   job.jump_raw = jump < 1.0f ? 1u : (jump > 65535.0f ? 65535u : uint32_t(jump));
+  job.jump = job.depth.metres(uint16_t(job.jump_raw));
   job.frame = frame;
+  job.ray_norms = ray_norms;
+  build_depth_tiles(frame.depth, scratch.depth_tiles);
+  job.tiles = scratch.depth_tiles;
+  job.tiles_x = FrameScratch::tiles_x(intr.width);
+  job.tiles_y = FrameScratch::tiles_y(intr.height);
   job.width = intr.width;
   job.height = intr.height;
   return Status::kOk;
@@ -140,13 +242,18 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
   const uint8_t max_weight = volume.params().max_weight;
   const Real zero = real_from<Real>(0.0f);
   const Real q_scale = real_from<Real>(float(kTsdfMax));
-  // Voxels closer than this to the sensor plane are not projected (division by ~0).
+  const int32_t full_weight = int32_t((uint32_t(WeightTable::kOne) * job.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
+  // Voxels closer than a voxel to the sensor plane are not projected (division by ~0).
   const Real near_z = job.voxel;
 
-  // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel.
-  Real step[3][3];
+  // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
+  // span: from the brick's first to its last voxel centre along each axis.
+  Real step[3][3], span[3][3];
   for (int axis = 0; axis < 3; ++axis)
-    for (int r = 0; r < 3; ++r) step[axis][r] = job.R[r * 3 + axis] * job.voxel;
+    for (int r = 0; r < 3; ++r) {
+      step[axis][r] = job.R[r * 3 + axis] * job.voxel;
+      span[axis][r] = step[axis][r] * real_from_int<Real>(kBrickSide - 1);
+    }
   const Real half = real_from<Real>(0.5f);
 
   for (std::size_t i = begin; i < end; ++i) {
@@ -154,14 +261,32 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
     int bx, by, bz;
     volume.brick_coords(brick, bx, by, bz);
     // World centre of the brick's first voxel, then into the camera frame.
-    Real w0[3] = {job.origin[0] + (real_from<Real>(float(bx * kBrickSide)) + half) * job.voxel,
-                  job.origin[1] + (real_from<Real>(float(by * kBrickSide)) + half) * job.voxel,
-                  job.origin[2] + (real_from<Real>(float(bz * kBrickSide)) + half) * job.voxel};
+    const Real w0[3] = {job.origin[0] + (real_from_int<Real>(bx * kBrickSide) + half) * job.voxel,
+                        job.origin[1] + (real_from_int<Real>(by * kBrickSide) + half) * job.voxel,
+                        job.origin[2] + (real_from_int<Real>(bz * kBrickSide) + half) * job.voxel};
     Real c0[3];
     for (int r = 0; r < 3; ++r) c0[r] = job.R[r * 3] * w0[0] + job.R[r * 3 + 1] * w0[1] + job.R[r * 3 + 2] * w0[2] + job.t[r];
 
+    const BrickClass cls = classify_brick(job, c0, span, near_z);
+    if (cls == BrickClass::kSkip) continue;
     const std::size_t base = std::size_t(brick) * kBrickVoxels;
-    bool observed = false, surface = false;
+    bool surface = false;
+    if (cls == BrickClass::kFreeSpace) {
+      // Every voxel is seen at d >= trunc: a full-weight +1 sample, no projection needed.
+      for (int k = 0; k < kBrickVoxels; ++k) {
+        const std::size_t idx = base + std::size_t(k);
+        const int32_t old_w = weight[idx];
+        if (old_w == max_weight && tsdf[idx] == kTsdfMax) continue;
+        const int32_t value = old_w == 0 ? kTsdfMax : blend(tsdf[idx], old_w, kTsdfMax, full_weight);
+        tsdf[idx] = int16_t(value);
+        weight[idx] = cap_weight(old_w + full_weight, max_weight);
+        surface = surface || value < kTsdfMax;
+      }
+      flags[brick] |= surface ? (kBrickObserved | kBrickSurface) : kBrickObserved;
+      continue;
+    }
+
+    bool observed = false;
     Real pz[3] = {c0[0], c0[1], c0[2]};
     for (int lz = 0; lz < kBrickSide; ++lz) {
       Real py[3] = {pz[0], pz[1], pz[2]};
@@ -175,22 +300,25 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
           const Real pv = job.fy * (p[1] * inv_z) + job.cy;
           int iu, iv;
           if (!pixel_of(pu, job.width, iu) || !pixel_of(pv, job.height, iv)) continue;
+          // Cheap exits on the nearest pixel before interpolating: no data, or certainly occluded
+          // (an interpolated depth is at most a depth jump beyond the nearest pixel's).
+          const uint16_t nearest = job.frame.depth.at(iu, iv);
+          if (nearest == 0) continue;
+          if (job.depth.metres(nearest) + job.jump - p[2] < zero - job.rho) continue;
           Real z;
           if (!depth_at(job, pu, pv, iu, iv, z)) continue;
           if (z < job.min_z || z > job.max_z) continue;
-          // Eq. (1) along the voxel's own ray: m = z |p| / p.z, d = m - |p| = (z - p.z) |p| / p.z.
-          const Real range = real_sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
-          const Real d = (z - p[2]) * (range * inv_z);
-          if (d <= -job.rho) continue;
+          // Eq. (1): (measured range) - (voxel range) along the ray = (z - p.z) |ray|.
+          const Real d = (z - p[2]) * job.ray_norms.at(iu, iv);
+          if (d <= zero - job.rho) continue;
           // Eq. (2) from the table: full weight in front of -eps.
-          uint32_t w_shape = WeightTable::kOne;
-          if (d < -job.eps) {
+          int32_t w = full_weight;
+          if (d < zero - job.eps) {
             int32_t k = floor_int((zero - d - job.eps) * job.band_to_index);
             k = k < 0 ? 0 : (k >= WeightTable::kSize ? WeightTable::kSize - 1 : k);
-            w_shape = shape[k];
+            w = int32_t((shape[k] * job.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
+            if (w == 0) continue;
           }
-          const int32_t w = int32_t((w_shape * job.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
-          if (w == 0) continue;
           int32_t q = d >= job.trunc ? kTsdfMax : round_int(d * job.inv_trunc * q_scale);
           q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
 
@@ -244,10 +372,10 @@ void finish_integration(TsdfVolume& volume, std::size_t count) {
 }
 
 template <class Real>
-Status integrate(TsdfVolume& volume, const PinholeIntrinsics& intr, const DepthFrame& frame,
-                 const Pose& T_world_cam, float trust) {
+Status integrate(TsdfVolume& volume, const PinholeIntrinsics& intr, ImageView<const Real> ray_norms,
+                 const DepthFrame& frame, const Pose& T_world_cam, FrameScratch& scratch, float trust) {
   IntegrationJob<Real> job;
-  const Status s = prepare_integration(volume, intr, frame, T_world_cam, trust, job);
+  const Status s = prepare_integration(volume, intr, ray_norms, frame, T_world_cam, trust, scratch, job);
   if (s != Status::kOk) return s;
   const std::size_t count = select_bricks(volume, intr, T_world_cam);
   integrate_bricks(volume, job, 0, count);
@@ -255,11 +383,13 @@ Status integrate(TsdfVolume& volume, const PinholeIntrinsics& intr, const DepthF
   return Status::kOk;
 }
 
-#define EDGEFUSE_INSTANTIATE(Real)                                                                              \
-  template Status prepare_integration<Real>(const TsdfVolume&, const PinholeIntrinsics&, const DepthFrame&,     \
-                                            const Pose&, float, IntegrationJob<Real>&);                        \
-  template void integrate_bricks<Real>(TsdfVolume&, const IntegrationJob<Real>&, std::size_t, std::size_t);    \
-  template Status integrate<Real>(TsdfVolume&, const PinholeIntrinsics&, const DepthFrame&, const Pose&, float);
+#define EDGEFUSE_INSTANTIATE(Real)                                                                                  \
+  template Status prepare_integration<Real>(const TsdfVolume&, const PinholeIntrinsics&, ImageView<const Real>,     \
+                                            const DepthFrame&, const Pose&, float, FrameScratch&,                   \
+                                            IntegrationJob<Real>&);                                                  \
+  template void integrate_bricks<Real>(TsdfVolume&, const IntegrationJob<Real>&, std::size_t, std::size_t);        \
+  template Status integrate<Real>(TsdfVolume&, const PinholeIntrinsics&, ImageView<const Real>, const DepthFrame&, \
+                                  const Pose&, FrameScratch&, float);
 EDGEFUSE_INSTANTIATE(float)
 EDGEFUSE_INSTANTIATE(Fixed)
 #undef EDGEFUSE_INSTANTIATE

@@ -1,5 +1,8 @@
 #include "edgefuse/tsdf/raycast.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include "kernel_math.hpp"
 #include "tsdf_sampler.hpp"
 
@@ -92,6 +95,72 @@ Real brick_exit(const RayFrame<Real>& f, const Real gd[3], const int cell[3], Re
 
 }  // namespace
 
+Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
+                       const RaycastMaps& maps, FrameScratch& scratch) {
+  if (!volume.initialised()) return Status::kNotInitialised;
+  if (intr.validate() != Status::kOk) return Status::kInvalidArgument;
+  if (maps.depth_m.width != intr.width || maps.depth_m.height != intr.height || maps.depth_m.data == nullptr)
+    return Status::kInvalidArgument;
+  if ((!maps.vertex.empty() && (maps.vertex.width != intr.width || maps.vertex.height != intr.height)) ||
+      (!maps.normal.empty() && (maps.normal.width != intr.width || maps.normal.height != intr.height)) ||
+      (!maps.colour.empty() && (maps.colour.width != intr.width || maps.colour.height != intr.height)))
+    return Status::kInvalidArgument;
+  if (!scratch.fits(intr.width, intr.height)) return Status::kCapacityExceeded;
+
+  const int tx = FrameScratch::tiles_x(intr.width), ty = FrameScratch::tiles_y(intr.height);
+  const std::size_t tiles = FrameScratch::tiles_for(intr.width, intr.height);
+  for (std::size_t i = 0; i < tiles; ++i) {
+    scratch.model_min_z[i] = 1e30f;
+    scratch.model_max_z[i] = -1.0f;
+  }
+  const Pose T_cam_world = T_world_cam.inverse();
+  const float vs = volume.voxel_m();
+  const uint8_t* flags = volume.brick_flags();
+  const std::size_t bricks = volume.brick_count();
+  // A zero crossing can lie in a cell reaching one voxel past the brick's last voxel centre.
+  const float lo_off = 0.5f * vs, hi_off = (kBrickSide + 0.5f) * vs;
+  for (std::size_t b = 0; b < bricks; ++b) {
+    if (!(flags[b] & kBrickSurface)) continue;
+    int bx, by, bz;
+    volume.brick_coords(b, bx, by, bz);
+    const Vec3f corner = volume.origin_m() + Vec3f(float(bx), float(by), float(bz)) * (kBrickSide * vs);
+    float z_lo = 1e30f, z_hi = -1e30f, u_lo = 1e30f, u_hi = -1e30f, v_lo = 1e30f, v_hi = -1e30f;
+    bool behind = false;
+    for (int k = 0; k < 8; ++k) {
+      const Vec3f p = T_cam_world * (corner + Vec3f((k & 1) ? hi_off : lo_off, (k & 2) ? hi_off : lo_off,
+                                                    (k & 4) ? hi_off : lo_off));
+      z_lo = std::min(z_lo, p.z());
+      z_hi = std::max(z_hi, p.z());
+      if (p.z() <= 1e-3f) {
+        behind = true;
+        continue;
+      }
+      float u, v;
+      intr.project(p, u, v);
+      u_lo = std::min(u_lo, u);
+      u_hi = std::max(u_hi, u);
+      v_lo = std::min(v_lo, v);
+      v_hi = std::max(v_hi, v);
+    }
+    if (z_hi <= 0.0f) continue;
+    if (behind) {  // straddles the sensor plane: may cover any pixel
+      u_lo = v_lo = -1e30f;
+      u_hi = v_hi = 1e30f;
+    }
+    const int i0 = std::max(0, int(std::floor((u_lo + 0.5f) / FrameScratch::kTile)));
+    const int i1 = std::min(tx - 1, int(std::floor((std::min(u_hi, 1e6f) + 0.5f) / FrameScratch::kTile)));
+    const int j0 = std::max(0, int(std::floor((v_lo + 0.5f) / FrameScratch::kTile)));
+    const int j1 = std::min(ty - 1, int(std::floor((std::min(v_hi, 1e6f) + 0.5f) / FrameScratch::kTile)));
+    for (int j = j0; j <= j1; ++j)
+      for (int i = i0; i <= i1; ++i) {
+        const std::size_t t = std::size_t(j) * tx + i;
+        scratch.model_min_z[t] = std::min(scratch.model_min_z[t], z_lo);
+        scratch.model_max_z[t] = std::max(scratch.model_max_z[t], z_hi);
+      }
+  }
+  return Status::kOk;
+}
+
 template <class Real>
 bool sample_tsdf(const TsdfVolume& volume, const Vec3f& p_world, float& d_m) {
   const Vec3f g = (p_world - volume.origin_m()) / volume.voxel_m() - Vec3f::Constant(0.5f);
@@ -104,7 +173,9 @@ bool sample_tsdf(const TsdfVolume& volume, const Vec3f& p_world, float& d_m) {
 
 template <class Real>
 void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
-                  const RaycastMaps& maps, int row_begin, int row_end) {
+                  const RaycastMaps& maps, const FrameScratch& scratch, int row_begin, int row_end) {
+  const int tiles_x = FrameScratch::tiles_x(intr.width);
+  const Real margin = real_from<Real>(volume.params().trunc_m);
   const RayFrame<Real> f = make_ray_frame<Real>(volume, intr, T_world_cam);
   const TsdfSampler<Real> sampler(volume);
   const uint8_t* flags = volume.brick_flags();
@@ -129,8 +200,13 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
       const Real z_per_m = one / ray_norm;             // z-depth advanced per metre along the ray
       const Real min_step = half * f.voxel * z_per_m;  // half a voxel
       const Real nudge = real_from<Real>(1.0f / 64.0f) * f.voxel * z_per_m;
+      const Real quarter_trunc = real_from<Real>(0.25f) * f.trunc * z_per_m;
 
-      Real t = f.min_z, t_end = f.max_z;
+      // The z range where this tile's surface bricks lie, widened by a truncation.
+      const std::size_t tile = std::size_t(v / FrameScratch::kTile) * tiles_x + std::size_t(u / FrameScratch::kTile);
+      if (scratch.model_max_z[tile] < 0.0f) continue;
+      Real t = max_r(f.min_z, real_from<Real>(scratch.model_min_z[tile]) - margin);
+      Real t_end = min_r(f.max_z, real_from<Real>(scratch.model_max_z[tile]) + margin);
       if (!clip_to_grid(f, gd, t, t_end)) continue;
       // Start and stop a little inside the grid: the clip is exact only up to rounding.
       t += nudge;
@@ -144,14 +220,19 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
         const Real g[3] = {f.g0[0] + t * gd[0], f.g0[1] + t * gd[1], f.g0[2] + t * gd[2]};
         int cell[3] = {floor_int(g[0]), floor_int(g[1]), floor_int(g[2])};
         if (!sampler.in_grid(cell)) break;
-        if (!(flags[volume.brick_index(cell[0] >> 3, cell[1] >> 3, cell[2] >> 3)] & kBrickNearSurface)) {
-          t = brick_exit(f, gd, cell, nudge);  // no surface in or next to this brick
+        const uint8_t bf = flags[volume.brick_index(cell[0] >> 3, cell[1] >> 3, cell[2] >> 3)];
+        if ((bf & (kBrickNearSurface | kBrickObserved)) != (kBrickNearSurface | kBrickObserved)) {
+          // No surface in or next to this brick, or nothing observed in it (then every cell based
+          // here has an unobserved corner): leave it whole.
+          t = brick_exit(f, gd, cell, nudge);
           prev_valid = false;
           continue;
         }
         Real s;
         if (!sampler.sample(g[0], g[1], g[2], s)) {
-          t += min_step;
+          // Unobserved corner: no surface can be here. A surface seen from this side has its
+          // positive band (trunc deep) observed, so a quarter truncation cannot step past it.
+          t += max_r(quarter_trunc, min_step);
           prev_valid = false;
           continue;
         }
@@ -207,24 +288,19 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
 
 template <class Real>
 Status raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
-               const RaycastMaps& maps) {
-  if (!volume.initialised()) return Status::kNotInitialised;
-  if (intr.validate() != Status::kOk) return Status::kInvalidArgument;
-  if (maps.depth_m.width != intr.width || maps.depth_m.height != intr.height || maps.depth_m.data == nullptr)
-    return Status::kInvalidArgument;
-  if ((!maps.vertex.empty() && (maps.vertex.width != intr.width || maps.vertex.height != intr.height)) ||
-      (!maps.normal.empty() && (maps.normal.width != intr.width || maps.normal.height != intr.height)) ||
-      (!maps.colour.empty() && (maps.colour.width != intr.width || maps.colour.height != intr.height)))
-    return Status::kInvalidArgument;
-  raycast_rows<Real>(volume, intr, T_world_cam, maps, 0, intr.height);
+               const RaycastMaps& maps, FrameScratch& scratch) {
+  const Status s = prepare_raycast(volume, intr, T_world_cam, maps, scratch);
+  if (s != Status::kOk) return s;
+  raycast_rows<Real>(volume, intr, T_world_cam, maps, scratch, 0, intr.height);
   return Status::kOk;
 }
 
 #define EDGEFUSE_INSTANTIATE(Real)                                                                                 \
   template bool sample_tsdf<Real>(const TsdfVolume&, const Vec3f&, float&);                                       \
   template void raycast_rows<Real>(const TsdfVolume&, const PinholeIntrinsics&, const Pose&, const RaycastMaps&, \
-                                   int, int);                                                                     \
-  template Status raycast<Real>(const TsdfVolume&, const PinholeIntrinsics&, const Pose&, const RaycastMaps&);
+                                   const FrameScratch&, int, int);                                                \
+  template Status raycast<Real>(const TsdfVolume&, const PinholeIntrinsics&, const Pose&, const RaycastMaps&,     \
+                                FrameScratch&);
 EDGEFUSE_INSTANTIATE(float)
 EDGEFUSE_INSTANTIATE(Fixed)
 #undef EDGEFUSE_INSTANTIATE

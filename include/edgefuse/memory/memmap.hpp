@@ -11,6 +11,7 @@
 #include "edgefuse/math/pose.hpp"
 #include "edgefuse/memory/capacities.hpp"
 #include "edgefuse/tsdf/extract.hpp"
+#include "edgefuse/tsdf/frame_scratch.hpp"
 #include "edgefuse/tsdf/volume.hpp"
 
 namespace edgefuse {
@@ -29,6 +30,9 @@ enum class Region : int {
   kRaycastVertex,   //!< model vertices per sensor
   kRaycastNormal,   //!< model normals per sensor
   kRaycastColour,   //!< model colour per sensor
+  kDepthTiles,      //!< 8x8-pixel depth bounds per sensor (integration)
+  kModelTilesMin,   //!< 8x8-pixel surface z range per sensor (raycast)
+  kModelTilesMax,
   kSurfacePoints,   //!< extracted / fused cloud
   kMeshScratch,     //!< marching-cubes slice tables
   kCount
@@ -53,6 +57,7 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   const uint64_t voxels = uint64_t(c.volume_dim) * c.volume_dim * c.volume_dim;
   const uint64_t bricks = voxels / kBrickVoxels;
   const uint64_t pixels = uint64_t(c.image_width_max) * c.image_height_max * c.sensors_max;
+  const uint64_t tiles = uint64_t(FrameScratch::tiles_for(c.image_width_max, c.image_height_max)) * c.sensors_max;
   MemoryMap m{};
   auto set = [&m](Region r, const char* name, uint64_t bytes) { m.regions[int(r)] = MemoryRegion{name, bytes}; };
   set(Region::kVoxelTsdf, "voxel tsdf (int16)", voxels * sizeof(int16_t));
@@ -68,6 +73,9 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kRaycastVertex, "raycast vertex", pixels * sizeof(Vec3f));
   set(Region::kRaycastNormal, "raycast normal", pixels * sizeof(Vec3f));
   set(Region::kRaycastColour, "raycast colour", pixels * sizeof(Rgba8));
+  set(Region::kDepthTiles, "depth tile bounds", tiles * sizeof(DepthTile));
+  set(Region::kModelTilesMin, "model tile near z", tiles * sizeof(float));
+  set(Region::kModelTilesMax, "model tile far z", tiles * sizeof(float));
   set(Region::kSurfacePoints, "surface points", uint64_t(c.points_max) * sizeof(SurfacePoint));
   set(Region::kMeshScratch, "mesh slice tables",
       uint64_t(MeshScratch::entries_for(c.volume_dim)) * sizeof(uint32_t));
@@ -87,9 +95,23 @@ struct CoreBuffers {
   Vec3f* raycast_vertex = nullptr;
   Vec3f* raycast_normal = nullptr;
   Rgba8* raycast_colour = nullptr;
+  DepthTile* depth_tiles = nullptr;
+  float* model_min_z = nullptr;
+  float* model_max_z = nullptr;
   SurfacePoint* points = nullptr;
   MeshScratch mesh_scratch;
   std::size_t pixels_per_sensor = 0;  //!< stride between the sensors' images in each region
+  std::size_t tiles_per_sensor = 0;   //!< stride between the sensors' tile arrays
+
+  //! The tile scratch of sensor i (0 <= i < sensors_max).
+  FrameScratch scratch(int sensor) const {
+    FrameScratch f;
+    f.depth_tiles = depth_tiles + std::size_t(sensor) * tiles_per_sensor;
+    f.model_min_z = model_min_z + std::size_t(sensor) * tiles_per_sensor;
+    f.model_max_z = model_max_z + std::size_t(sensor) * tiles_per_sensor;
+    f.capacity = tiles_per_sensor;
+    return f;
+  }
 };
 
 //! Splits `arena` (at least make_memory_map(c).total_bytes, 64-byte aligned) into the regions.

@@ -3,13 +3,19 @@
 // The update of each voxel follows eq. (1)-(2): the voxel centre v is projected into the image at
 // (u, v); the z-depth there is interpolated bilinearly from the 4 nearest pixels (nearest pixel at
 // the border or where a neighbour is missing; no update where the 4 span a depth jump larger than
-// the truncation, which would otherwise smear foreground onto background at silhouettes). The
-// measurement along v's own ray is m = z |v_c| / v_c.z (v_c: v in the camera frame), and
-// d = m - |v_c| (eq. 1), then
+// the truncation, which would otherwise smear foreground onto background at silhouettes). With
+// v_c the voxel in the camera frame, the measurement along v's ray is m = z |ray| and the voxel's
+// range is v_c.z |ray| (|ray| from the precomputed ray-norm map), so d = (z - v_c.z) |ray| (eq. 1);
+// then
 //   d <= -rho                 : no update (occluded)
 //   otherwise                 : tsdf <- (W tsdf + w(d) min(1, d/trunc)) / (W + w(d)), W <- min(W + w, cap)
 // with w(d) the Bylow weight (weight.hpp) times the sensor's trust factor. Colour is fused with its
 // own weight where |d| < colour band.
+//
+// Bricks are classified before their voxels are touched, with the min / max depth of the 8x8
+// pixel tiles they project onto (FrameScratch): entirely more than rho behind every measurement ->
+// skipped; entirely more than trunc in front of every measurement of fully valid tiles -> free
+// space, each voxel blended towards +1 without projection; otherwise voxel by voxel.
 //
 // Work is split in three steps so that a caller owning threads can run step 2 in parallel:
 //   1. select_bricks: frustum culling -> list of bricks the image can touch (volume.brick_list())
@@ -26,6 +32,7 @@
 #include "edgefuse/math/pose.hpp"
 #include "edgefuse/math/real.hpp"
 #include "edgefuse/sensor/pinhole.hpp"
+#include "edgefuse/tsdf/frame_scratch.hpp"
 #include "edgefuse/tsdf/volume.hpp"
 
 namespace edgefuse {
@@ -52,20 +59,28 @@ struct IntegrationJob {
   Real origin[3];
   uint32_t trust_q8 = 256;   //!< sensor trust factor in 1/256 (256 = full)
   uint32_t jump_raw = 0;     //!< raw depth difference counted as a discontinuity (= trunc)
+  Real jump;                 //!< the same in metres
   DepthFrame frame;
+  ImageView<const Real> ray_norms;
+  const DepthTile* tiles = nullptr;
+  int tiles_x = 0, tiles_y = 0;
   int width = 0, height = 0;
 };
 
-//! Builds the per-frame job. Fails when sizes disagree or parameters are out of range.
+//! Builds the per-frame job (and the frame's depth tiles). Fails when sizes disagree or
+//! parameters are out of range.
 //! \param volume the space (initialised)
 //! \param intr intrinsics of the depth image
+//! \param ray_norms |ray| per pixel (build_ray_norms), same size as the image
 //! \param frame depth (and optional colour) of this frame
 //! \param T_world_cam sensor-to-world pose of this frame
 //! \param trust sensor trust factor in (0, 1] scaling the weight (1 = full)
+//! \param scratch the sensor's tile scratch (fits the image)
 //! \param job output
 template <class Real>
-Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& intr, const DepthFrame& frame,
-                           const Pose& T_world_cam, float trust, IntegrationJob<Real>& job);
+Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& intr, ImageView<const Real> ray_norms,
+                           const DepthFrame& frame, const Pose& T_world_cam, float trust, FrameScratch& scratch,
+                           IntegrationJob<Real>& job);
 
 //! Step 1: frustum culling. Writes the selected bricks to volume.brick_list(); returns how many.
 //! \param volume the space
@@ -82,7 +97,7 @@ void finish_integration(TsdfVolume& volume, std::size_t count);
 
 //! All three steps on the calling thread.
 template <class Real>
-Status integrate(TsdfVolume& volume, const PinholeIntrinsics& intr, const DepthFrame& frame,
-                 const Pose& T_world_cam, float trust = 1.0f);
+Status integrate(TsdfVolume& volume, const PinholeIntrinsics& intr, ImageView<const Real> ray_norms,
+                 const DepthFrame& frame, const Pose& T_world_cam, FrameScratch& scratch, float trust = 1.0f);
 
 }  // namespace edgefuse

@@ -1,6 +1,9 @@
 // Raycasting a pinhole sensor's view out of the space (paper Fig. 3, "model <- raycast").
 //
-// For every pixel the ray from the sensor centre is marched through the volume:
+// First the bricks holding surface are projected into 8x8-pixel tiles (prepare_raycast), giving
+// each tile the z range where a surface can be; a ray starts one truncation before that range and
+// stops one after it, and rays of tiles without surface are not marched at all. Then for every
+// pixel the ray from the sensor centre is marched through the volume:
 //   - bricks without surface nearby (kBrickNearSurface clear) are skipped whole;
 //   - inside, the step is the interpolated distance itself (at least half a voxel), so free space
 //     is crossed quickly and the surface is never stepped over by more than the distance bound;
@@ -15,6 +18,7 @@
 #include "edgefuse/core/status.hpp"
 #include "edgefuse/math/pose.hpp"
 #include "edgefuse/sensor/pinhole.hpp"
+#include "edgefuse/tsdf/frame_scratch.hpp"
 #include "edgefuse/tsdf/volume.hpp"
 
 namespace edgefuse {
@@ -27,19 +31,24 @@ struct RaycastMaps {
   ImageView<Rgba8> colour;   //!< a = 255 where colour was fused, a = 0 otherwise
 };
 
-//! Rows [row_begin, row_end) of the raycast. Thread-safe for disjoint row ranges.
+//! Step 1: checks the outputs and projects the surface bricks into the scratch's model tiles.
 //! \param volume the space
 //! \param intr sensor intrinsics (min/max range bound the ray)
 //! \param T_world_cam sensor pose
-//! \param maps outputs
+//! \param maps outputs (checked against intr)
+//! \param scratch the sensor's tile scratch
+Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
+                       const RaycastMaps& maps, FrameScratch& scratch);
+
+//! Step 2: rows [row_begin, row_end) of the raycast. Thread-safe for disjoint row ranges.
 template <class Real>
 void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
-                  const RaycastMaps& maps, int row_begin, int row_end);
+                  const RaycastMaps& maps, const FrameScratch& scratch, int row_begin, int row_end);
 
-//! The whole image on the calling thread. Fails when the maps do not match the intrinsics.
+//! Both steps, the whole image on the calling thread.
 template <class Real>
 Status raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
-               const RaycastMaps& maps);
+               const RaycastMaps& maps, FrameScratch& scratch);
 
 //! Trilinear TSDF at a world point, in metres (distance * trunc); false where any of the 8
 //! voxels is unobserved or the point is outside the volume.

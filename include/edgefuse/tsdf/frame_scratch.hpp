@@ -1,0 +1,39 @@
+// Per-sensor scratch of the integration and raycast kernels: coarse 8x8-pixel tiles.
+//   depth_tiles: min / max of the valid raw depth in each tile of the frame being pushed, so a
+//                whole brick can be classified at once (entirely behind the surface: skipped;
+//                entirely in free space: updated without projecting each voxel).
+//   model_*_z:   z range of the surface bricks projected into each tile, so each raycast ray
+//                starts just before the surface instead of at the volume's border.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace edgefuse {
+
+struct DepthTile {
+  uint16_t min_raw = 0;    //!< smallest valid raw depth (0: none valid)
+  uint16_t max_raw = 0;    //!< largest valid raw depth
+  uint8_t all_valid = 0;   //!< every pixel of the tile has a depth
+  uint8_t pad = 0;
+};
+
+struct FrameScratch {
+  static constexpr int kTile = 8;  //!< tile edge in pixels
+  DepthTile* depth_tiles = nullptr;
+  float* model_min_z = nullptr;
+  float* model_max_z = nullptr;
+  std::size_t capacity = 0;        //!< tiles each array holds
+
+  static constexpr int tiles_x(int width) { return (width + kTile - 1) / kTile; }
+  static constexpr int tiles_y(int height) { return (height + kTile - 1) / kTile; }
+  static constexpr std::size_t tiles_for(int width, int height) {
+    return std::size_t(tiles_x(width)) * std::size_t(tiles_y(height));
+  }
+  bool fits(int width, int height) const {
+    return depth_tiles != nullptr && model_min_z != nullptr && model_max_z != nullptr &&
+           tiles_for(width, height) <= capacity;
+  }
+};
+
+}  // namespace edgefuse

@@ -1,0 +1,42 @@
+#include "board_defaults.hpp"
+
+#include <toml++/toml.h>
+
+#include "edgefuse/board_config.hpp"
+
+namespace edgefuse::cli {
+namespace {
+
+template <class T>
+bool read_number(const toml::table& t, const std::string& file, const char* key, T lo, T hi, T& out,
+                 std::string& err) {
+  const auto node = t["tsdf"][key];
+  if (!node) return true;  // keep the built-in default
+  const std::optional<double> v = node.value<double>();
+  if (!v || *v < double(lo) || *v > double(hi)) {
+    err = file + ": tsdf." + key + " must be a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    return false;
+  }
+  out = T(*v);
+  return true;
+}
+
+}  // namespace
+
+bool read_board_defaults(const std::string& board, BoardDefaults& out, std::string& err) {
+  const std::string file = std::string(kBoardSourceDir) + "/" + board + "/board.toml";
+  toml::table t;
+  try {
+    t = toml::parse_file(file);
+  } catch (const toml::parse_error& e) {
+    err = file + ": " + std::string(e.description());
+    return false;
+  }
+  out.name = board;
+  return read_number(t, file, "voxel_m", 1e-4f, 1.0f, out.voxel_m, err) &&
+         read_number(t, file, "trunc_m", 1e-4f, 10.0f, out.trunc_m, err) &&
+         read_number(t, file, "max_weight", 1, 255, out.max_weight, err) &&
+         read_number(t, file, "threads", 1, 64, out.threads, err);
+}
+
+}  // namespace edgefuse::cli

@@ -1,0 +1,20 @@
+// Run-time defaults of a board (board/<name>/board.toml, section [tsdf]).
+#pragma once
+
+#include <string>
+
+namespace edgefuse::cli {
+
+struct BoardDefaults {
+  std::string name;
+  float voxel_m = 0.004f;
+  float trunc_m = 0.016f;
+  int max_weight = 255;
+  int threads = 1;
+};
+
+//! Reads board/<name>/board.toml from the source tree the program was built from.
+//! \return false with `err` naming the file and key when a value is missing or out of range
+bool read_board_defaults(const std::string& board, BoardDefaults& out, std::string& err);
+
+}  // namespace edgefuse::cli

@@ -1,0 +1,10 @@
+// The subcommands of the edgefuse program; each returns the process exit code
+// (0 ok, 1 bad input or failure, 2 bad command line).
+#pragma once
+
+namespace edgefuse::cli {
+
+int cmd_fuse(int argc, char** argv);
+int cmd_memmap(int argc, char** argv);
+
+}  // namespace edgefuse::cli

@@ -1,0 +1,122 @@
+#include "core_setup.hpp"
+
+#include <algorithm>
+#include <cstring>
+
+#include "edgefuse/io/pcd.hpp"
+#include "edgefuse/io/ply.hpp"
+#include "edgefuse/tsdf/extract.hpp"
+
+namespace edgefuse::cli {
+
+bool CoreSetup::init(const BoardCapacities& board, const PinholeIntrinsics& intr, std::string& err) {
+  if (board.volume_dim > build_board().volume_dim || std::strcmp(board.name, build_board().name) != 0) {
+    err = "this build's arena is sized for board " + std::string(build_board().name);
+    return false;
+  }
+  if (carve_memory(board, static_arena(), static_arena_bytes(), buffers) != Status::kOk) {
+    err = "static arena too small for the memory map";
+    return false;
+  }
+  if (intr.width > board.image_width_max || intr.height > board.image_height_max) {
+    err = "a " + std::to_string(intr.width) + "x" + std::to_string(intr.height) + " image exceeds board " + board.name +
+          "'s largest image " + std::to_string(board.image_width_max) + "x" + std::to_string(board.image_height_max);
+    return false;
+  }
+  const int w = intr.width, h = intr.height;
+  maps.depth_m = ImageView<float>(buffers.raycast_depth, w, h);
+  maps.vertex = ImageView<Vec3f>(buffers.raycast_vertex, w, h);
+  maps.normal = ImageView<Vec3f>(buffers.raycast_normal, w, h);
+  maps.colour = board.colour ? ImageView<Rgba8>(buffers.raycast_colour, w, h) : ImageView<Rgba8>();
+  scratch = buffers.scratch(0);
+  static_assert(sizeof(real_t) == sizeof(float), "the ray-norm region holds 4-byte scalars");
+  ray_norms = ImageView<real_t>(reinterpret_cast<real_t*>(buffers.ray_norms), w, h);
+  if (build_ray_norms<real_t>(intr, ray_norms) != Status::kOk) {
+    err = "bad intrinsics";
+    return false;
+  }
+  return true;
+}
+
+bool CoreSetup::make_volume(const FuseSettings& s, std::string& err) {
+  TsdfParams p = TsdfParams::defaults_for(s.voxel_m, s.trunc_m);
+  p.max_weight = uint8_t(s.max_weight);
+  const Status st = volume.init(buffers.voxels, s.dim, s.origin_m, p);
+  if (st != Status::kOk) {
+    err = "volume " + std::to_string(s.dim) + "^3 at " + std::to_string(s.voxel_m) + " m: " + to_string(st);
+    return false;
+  }
+  return true;
+}
+
+DepthFrame CoreSetup::stage_frame(const std::vector<uint16_t>& depth, const std::vector<Rgb8>* colour) {
+  const int w = maps.depth_m.width, h = maps.depth_m.height;
+  std::copy(depth.begin(), depth.end(), buffers.depth_frames);
+  DepthFrame f;
+  f.depth = ImageView<const uint16_t>(buffers.depth_frames, w, h);
+  if (colour != nullptr && !colour->empty()) {
+    std::copy(colour->begin(), colour->end(), buffers.colour_frames);
+    f.colour = ImageView<const Rgb8>(buffers.colour_frames, w, h);
+  }
+  return f;
+}
+
+int CoreSetup::hit_percent(const PinholeIntrinsics& intr) const {
+  std::size_t hits = 0;
+  for (int v = 0; v < intr.height; ++v)
+    for (int u = 0; u < intr.width; ++u) hits += maps.depth_m.at(u, v) > 0.0f;
+  return int(100 * hits / (std::size_t(intr.width) * intr.height));
+}
+
+Status CoreSetup::extract_cloud(io::PointCloud& cloud) const {
+  const uint32_t capacity = build_board().points_max;
+  std::size_t count = 0;
+  const Status s = extract_points(volume, buffers.points, capacity, count);
+  cloud = io::PointCloud();
+  cloud.points.reserve(count);
+  cloud.normals.reserve(count);
+  bool any_colour = false;
+  for (std::size_t i = 0; i < count; ++i) any_colour = any_colour || buffers.points[i].colour.a != 0;
+  if (any_colour) cloud.colours.reserve(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    cloud.points.push_back(buffers.points[i].position);
+    cloud.normals.push_back(buffers.points[i].normal);
+    if (any_colour) cloud.colours.push_back(buffers.points[i].colour);
+  }
+  cloud.width = int(count);
+  cloud.height = 1;
+  return s;
+}
+
+bool centre_on_view(const PinholeIntrinsics& intr, const std::vector<uint16_t>& depth, const Pose& T_world_cam,
+                    FuseSettings& s, std::string& err) {
+  std::vector<float> xs, ys, zs;
+  for (int v = 0; v < intr.height; v += 2)
+    for (int u = 0; u < intr.width; u += 2) {
+      const uint16_t raw = depth[std::size_t(v) * intr.width + u];
+      const float z = float(raw) / intr.depth_scale;
+      if (raw == 0 || z < intr.min_range_m || z > intr.max_range_m) continue;
+      const Vec3f p = T_world_cam * intr.back_project(float(u), float(v), z);
+      xs.push_back(p.x());
+      ys.push_back(p.y());
+      zs.push_back(p.z());
+    }
+  if (xs.empty()) {
+    err = "the first frame has no valid depth to centre the volume on (give --origin)";
+    return false;
+  }
+  auto median = [](std::vector<float>& v) {
+    std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const Vec3f centre(median(xs), median(ys), median(zs));
+  s.origin_m = centre - Vec3f::Constant(0.5f * float(s.dim) * s.voxel_m);
+  return true;
+}
+
+bool write_cloud(const std::string& path, const io::PointCloud& cloud, std::string& err) {
+  const bool pcd = path.size() >= 4 && path.compare(path.size() - 4, 4, ".pcd") == 0;
+  return pcd ? io::write_pcd(path, cloud, err) : io::write_ply(path, cloud, err);
+}
+
+}  // namespace edgefuse::cli

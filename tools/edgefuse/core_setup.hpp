@@ -1,0 +1,53 @@
+// Start-up of the core for the host programs: carve the board's static arena, bind a volume,
+// stage frames into the static frame buffers, extract results.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "edgefuse/io/cloud.hpp"
+#include "edgefuse/memory/arena.hpp"
+#include "edgefuse/sensor/pinhole.hpp"
+#include "edgefuse/tsdf/integrate.hpp"
+#include "edgefuse/tsdf/raycast.hpp"
+#include "edgefuse/tsdf/volume.hpp"
+
+namespace edgefuse::cli {
+
+struct FuseSettings {
+  float voxel_m = 0.004f;
+  float trunc_m = 0.016f;
+  int max_weight = 255;
+  int dim = 128;
+  int threads = 1;
+  Vec3f origin_m = Vec3f::Zero();
+  bool origin_given = false;
+};
+
+struct CoreSetup {
+  CoreBuffers buffers;
+  TsdfVolume volume;
+  RaycastMaps maps;          //!< for the sensor given to init()
+  FrameScratch scratch;      //!< tiles of that sensor
+  ImageView<real_t> ray_norms;  //!< |ray| per pixel of that sensor
+
+  //! Carves the arena and checks the sensor against the board's capacity.
+  bool init(const BoardCapacities& board, const PinholeIntrinsics& intr, std::string& err);
+  //! Binds the volume (dim, voxel, trunc, origin from the settings).
+  bool make_volume(const FuseSettings& s, std::string& err);
+  //! Copies a frame into the static frame buffers (sizes were checked by init()).
+  DepthFrame stage_frame(const std::vector<uint16_t>& depth, const std::vector<Rgb8>* colour);
+  //! Share of pixels the last raycast hit, in percent.
+  int hit_percent(const PinholeIntrinsics& intr) const;
+  //! The zero-crossing cloud into the static point buffer, then into `cloud`.
+  Status extract_cloud(io::PointCloud& cloud) const;
+};
+
+//! Places the volume so that its centre is the median of the points the frame sees.
+bool centre_on_view(const PinholeIntrinsics& intr, const std::vector<uint16_t>& depth, const Pose& T_world_cam,
+                    FuseSettings& s, std::string& err);
+
+//! Writes a cloud as PLY (binary) or PCD (binary) by the file's extension.
+bool write_cloud(const std::string& path, const io::PointCloud& cloud, std::string& err);
+
+}  // namespace edgefuse::cli
