@@ -7,7 +7,7 @@ namespace edgefuse {
 namespace {
 
 constexpr std::size_t kBricksPerChunk = 32;
-constexpr int kRowsPerChunk = 4;
+constexpr int kRowsPerChunk = FrameScratch::kTile;  // one band of tiles
 
 template <class Real>
 struct IntegrateContext {

@@ -135,8 +135,8 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
         behind = true;
         continue;
       }
-      float u, v;
-      intr.project(p, u, v);
+      float u = 0.0f, v = 0.0f;
+      intr.project(p, u, v);  // p.z > 0 here
       u_lo = std::min(u_lo, u);
       u_hi = std::max(u_hi, u);
       v_lo = std::min(v_lo, v);
@@ -179,13 +179,19 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
   const RayFrame<Real> f = make_ray_frame<Real>(volume, intr, T_world_cam);
   const TsdfSampler<Real> sampler(volume);
   const uint8_t* flags = volume.brick_flags();
+  const uint8_t* weights = volume.weight();
+  const int16_t* tsdf = volume.tsdf();
   const Real zero = real_from_int<Real>(0);
   const Real half = real_from<Real>(0.5f);
   const Real one = real_from_int<Real>(1);
   const bool want_colour = !maps.colour.empty() && volume.has_colour();
 
+  // Pixels are visited tile by tile (8 columns of the given rows at a time) so that neighbouring
+  // rays, which read the same voxels, follow each other while those voxels are still cached.
+  for (int u0 = 0; u0 < intr.width; u0 += FrameScratch::kTile)
   for (int v = row_begin; v < row_end; ++v) {
-    for (int u = 0; u < intr.width; ++u) {
+    const int u_end = u0 + FrameScratch::kTile < intr.width ? u0 + FrameScratch::kTile : intr.width;
+    for (int u = u0; u < u_end; ++u) {
       maps.depth_m.at(u, v) = 0.0f;
       if (!maps.vertex.empty()) maps.vertex.at(u, v) = Vec3f::Zero();
       if (!maps.normal.empty()) maps.normal.at(u, v) = Vec3f::Zero();
@@ -200,7 +206,9 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
       const Real z_per_m = one / ray_norm;             // z-depth advanced per metre along the ray
       const Real min_step = half * f.voxel * z_per_m;  // half a voxel
       const Real nudge = real_from<Real>(1.0f / 64.0f) * f.voxel * z_per_m;
-      const Real quarter_trunc = real_from<Real>(0.25f) * f.trunc * z_per_m;
+      const Real half_trunc = half * f.trunc * z_per_m;
+      // From a voxel at +trunc the surface is at least trunc minus half a voxel diagonal away.
+      const Real far_step = max_r((f.trunc - f.voxel) * z_per_m, min_step);
 
       // The z range where this tile's surface bricks lie, widened by a truncation.
       const std::size_t tile = std::size_t(v / FrameScratch::kTile) * tiles_x + std::size_t(u / FrameScratch::kTile);
@@ -228,11 +236,23 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
           prev_valid = false;
           continue;
         }
+        // The nearest voxel first (2 loads instead of 16): unobserved or truncated at +1, the
+        // trilinear value cannot hold a crossing within the step taken below.
+        const int nearest[3] = {floor_int(g[0] + half), floor_int(g[1] + half), floor_int(g[2] + half)};
+        const std::size_t ni = volume.index(nearest[0], nearest[1], nearest[2]);
+        if (weights[ni] != 0 && tsdf[ni] == kTsdfMax) {
+          prev_valid = true;  // a +1 sample: the crossing, if next, lies between here and there
+          prev_t = t;
+          prev_s = one;
+          t += far_step;
+          continue;
+        }
         Real s;
         if (!sampler.sample(g[0], g[1], g[2], s)) {
           // Unobserved corner: no surface can be here. A surface seen from this side has its
-          // positive band (trunc deep) observed, so a quarter truncation cannot step past it.
-          t += max_r(quarter_trunc, min_step);
+          // positive band (at least trunc deep along any ray) observed, so half a truncation
+          // lands in that band before its zero crossing, never beyond it.
+          t += max_r(half_trunc, min_step);
           prev_valid = false;
           continue;
         }
