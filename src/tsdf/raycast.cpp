@@ -77,20 +77,26 @@ bool clip_to_grid(const RayFrame<Real>& f, const Real gd[3], Real& t0, Real& t1)
   return t0 < t1;
 }
 
-// t at which the ray leaves the brick holding floor(g), plus a small step into the next one.
+// t at which the ray leaves the brick holding floor(g); `axis` is the face it leaves through.
 template <class Real>
-Real brick_exit(const RayFrame<Real>& f, const Real gd[3], const int cell[3], Real t_nudge) {
+Real brick_exit(const RayFrame<Real>& f, const Real gd[3], const int cell[3], int& axis) {
   const Real tiny = real_from<Real>(1e-4f);
   Real t_exit = real_from_int<Real>(1 << 14);
+  axis = 0;
   for (int a = 0; a < 3; ++a) {
     const int lo = cell[a] & ~(kBrickSide - 1);
+    Real ta = t_exit;
     if (gd[a] > tiny) {
-      t_exit = min_r(t_exit, (real_from_int<Real>(lo + kBrickSide) - f.g0[a]) / gd[a]);
+      ta = (real_from_int<Real>(lo + kBrickSide) - f.g0[a]) / gd[a];
     } else if (gd[a] < real_from_int<Real>(0) - tiny) {
-      t_exit = min_r(t_exit, (real_from_int<Real>(lo) - f.g0[a]) / gd[a]);
+      ta = (real_from_int<Real>(lo) - f.g0[a]) / gd[a];
+    }
+    if (ta < t_exit) {
+      t_exit = ta;
+      axis = a;
     }
   }
-  return t_exit + t_nudge;
+  return t_exit;
 }
 
 }  // namespace
@@ -179,7 +185,6 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
   const RayFrame<Real> f = make_ray_frame<Real>(volume, intr, T_world_cam);
   const TsdfSampler<Real> sampler(volume);
   const uint8_t* flags = volume.brick_flags();
-  const uint8_t* weights = volume.weight();
   const int16_t* tsdf = volume.tsdf();
   const Real zero = real_from_int<Real>(0);
   const Real half = real_from<Real>(0.5f);
@@ -232,15 +237,28 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
         if ((bf & (kBrickNearSurface | kBrickObserved)) != (kBrickNearSurface | kBrickObserved)) {
           // No surface in or next to this brick, or nothing observed in it (then every cell based
           // here has an unobserved corner): leave it whole.
-          t = brick_exit(f, gd, cell, nudge);
+          int axis;
+          t = brick_exit(f, gd, cell, axis) + nudge;
           prev_valid = false;
           continue;
+        }
+        if (!(bf & kBrickSurface)) {
+          // Surface next door but none here: only the last cell before the exit face, which
+          // reaches into the next brick, can hold a crossing. Go to one voxel before that face.
+          int axis;
+          const Real t_exit = brick_exit(f, gd, cell, axis);
+          const Real t_last_cell = t_exit - real_from<Real>(1.01f) / abs_r(gd[axis]);
+          if (t_last_cell > t + min_step) {
+            t = t_last_cell;
+            prev_valid = false;
+            continue;
+          }
         }
         // The nearest voxel first (2 loads instead of 16): unobserved or truncated at +1, the
         // trilinear value cannot hold a crossing within the step taken below.
         const int nearest[3] = {floor_int(g[0] + half), floor_int(g[1] + half), floor_int(g[2] + half)};
         const std::size_t ni = volume.index(nearest[0], nearest[1], nearest[2]);
-        if (weights[ni] != 0 && tsdf[ni] == kTsdfMax) {
+        if (tsdf[ni] == kTsdfMax) {
           prev_valid = true;  // a +1 sample: the crossing, if next, lies between here and there
           prev_t = t;
           prev_s = one;
@@ -290,9 +308,9 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
       if (!maps.vertex.empty()) maps.vertex.at(u, v) = ray * z;
       const Real gh[3] = {f.g0[0] + t_hit * gd[0], f.g0[1] + t_hit * gd[1], f.g0[2] + t_hit * gd[2]};
       if (!maps.normal.empty()) {
-        Real grad[3];
+        float grad[3];
         if (sampler.gradient(gh[0], gh[1], gh[2], grad)) {
-          const Vec3f n_world(to_float(grad[0]), to_float(grad[1]), to_float(grad[2]));
+          const Vec3f n_world(grad[0], grad[1], grad[2]);
           const float len = n_world.norm();
           if (len > 0.0f) {
             Vec3f n = T_world_cam.R.transpose() * (n_world / len);

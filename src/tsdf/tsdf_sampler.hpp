@@ -28,13 +28,16 @@ class TsdfSampler {
     if (!in_grid(cell)) return false;
     std::size_t idx[8];
     corners(cell, idx);
-    for (int i = 0; i < 8; ++i)
-      if (weight_[idx[i]] == 0) return false;
+    int16_t q[8];
+    for (int i = 0; i < 8; ++i) {
+      q[i] = tsdf_[idx[i]];
+      if (q[i] == kTsdfUnobserved) return false;
+    }
     const Real fx = gx - real_from_int<Real>(cell[0]);
     const Real fy = gy - real_from_int<Real>(cell[1]);
     const Real fz = gz - real_from_int<Real>(cell[2]);
     Real c[8];
-    for (int i = 0; i < 8; ++i) c[i] = tsdf_fraction(Real(), tsdf_[idx[i]]);
+    for (int i = 0; i < 8; ++i) c[i] = tsdf_fraction(Real(), q[i]);
     // Corner i has offsets (i & 1, (i >> 1) & 1, (i >> 2) & 1).
     const Real c00 = c[0] + (c[1] - c[0]) * fx, c10 = c[2] + (c[3] - c[2]) * fx;
     const Real c01 = c[4] + (c[5] - c[4]) * fx, c11 = c[6] + (c[7] - c[6]) * fx;
@@ -43,16 +46,23 @@ class TsdfSampler {
     return true;
   }
 
-  //! Central-difference gradient (one voxel apart) in fractions of trunc per voxel.
-  bool gradient(Real gx, Real gy, Real gz, Real grad[3]) const {
-    const Real one = real_from_int<Real>(1);
-    Real a, b;
-    if (!sample(gx + one, gy, gz, a) || !sample(gx - one, gy, gz, b)) return false;
-    grad[0] = a - b;
-    if (!sample(gx, gy + one, gz, a) || !sample(gx, gy - one, gz, b)) return false;
-    grad[1] = a - b;
-    if (!sample(gx, gy, gz + one, a) || !sample(gx, gy, gz - one, b)) return false;
-    grad[2] = a - b;
+  //! Gradient by central differences of the 6 voxels around the voxel nearest to g (in stored
+  //! units per two voxels; only its direction is used). False at unobserved or truncated
+  //! neighbours, whose clamped values would bend the direction.
+  bool gradient(Real gx, Real gy, Real gz, float grad[3]) const {
+    const Real half = real_from<Real>(0.5f);
+    const int c[3] = {floor_int(gx + half), floor_int(gy + half), floor_int(gz + half)};
+    if (c[0] < 1 || c[1] < 1 || c[2] < 1 || c[0] >= last_ || c[1] >= last_ || c[2] >= last_) return false;
+    for (int a = 0; a < 3; ++a) {
+      int lo[3] = {c[0], c[1], c[2]}, hi[3] = {c[0], c[1], c[2]};
+      --lo[a];
+      ++hi[a];
+      const int16_t ql = tsdf_[v_.index(lo[0], lo[1], lo[2])], qh = tsdf_[v_.index(hi[0], hi[1], hi[2])];
+      if (ql == kTsdfUnobserved || qh == kTsdfUnobserved || ql == kTsdfMax || qh == kTsdfMax || ql == -kTsdfMax ||
+          qh == -kTsdfMax)
+        return false;
+      grad[a] = float(int32_t(qh) - int32_t(ql));
+    }
     return true;
   }
 

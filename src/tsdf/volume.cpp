@@ -27,7 +27,7 @@ Status TsdfVolume::init(const VoxelStorage& storage, int dim, const Vec3f& origi
 void TsdfVolume::clear() {
   if (!initialised()) return;
   const std::size_t n = voxel_count();
-  for (std::size_t i = 0; i < n; ++i) s_.tsdf[i] = kTsdfMax;
+  for (std::size_t i = 0; i < n; ++i) s_.tsdf[i] = kTsdfUnobserved;
   std::memset(s_.weight, 0, n);
   if (s_.colour != nullptr) {
     std::memset(static_cast<void*>(s_.colour), 0, n * sizeof(Rgb8));

@@ -5,7 +5,7 @@
 // raycasting touch whole cache lines and can skip whole bricks. Each brick has a flag byte.
 //
 // A voxel is compact, stored as parallel arrays (structure of arrays):
-//   tsdf    int16   distance / trunc, scaled so that +-32767 = +-1 (truncated)
+//   tsdf    int16   distance / trunc, scaled so that +-32767 = +-1 (truncated); -32768 = unobserved
 //   weight  uint8   accumulated weight in 1/8 sample units (kWeightUnitsPerSample), capped
 //   colour  3 x uint8 RGB + uint8 colour weight   (only when the board enables colour)
 //
@@ -27,6 +27,9 @@ namespace edgefuse {
 inline constexpr int kBrickSide = 8;
 inline constexpr int kBrickVoxels = kBrickSide * kBrickSide * kBrickSide;
 inline constexpr int16_t kTsdfMax = 32767;     //!< stored value of a distance >= +trunc
+//! Stored distance of a voxel never observed (weight 0). Integration never produces it (samples are
+//! clamped to +-kTsdfMax), so readers that need only distances (raycast) test a single array.
+inline constexpr int16_t kTsdfUnobserved = -32768;
 inline constexpr int kWeightUnitsPerSample = 8;  //!< a full-weight sample adds 8 to the weight
 
 enum BrickFlag : uint8_t {
@@ -73,7 +76,7 @@ class TsdfVolume {
   //! \param origin_m world position of the minimum corner
   //! \param params voxel size, truncation, weights
   Status init(const VoxelStorage& storage, int dim, const Vec3f& origin_m, const TsdfParams& params);
-  //! Forgets every measurement (weights 0, distances +1, flags 0).
+  //! Forgets every measurement (weights 0, distances kTsdfUnobserved, flags 0).
   void clear();
   //! Moves the volume without touching voxels (use on an empty space).
   void set_origin(const Vec3f& origin_m) { origin_m_ = origin_m; }
