@@ -92,13 +92,46 @@ void build_depth_tiles(const ImageView<const uint16_t>& depth, DepthTile* tiles)
       t.max_raw = uint16_t(hi);
       t.all_valid = all ? 1 : 0;
     }
+  // Neighbourhood minimum: the 2x2 pixels a voxel interpolates from lie within the 3x3 tiles
+  // around the tile of its nearest pixel.
+  for (int j = 0; j < ty; ++j)
+    for (int i = 0; i < tx; ++i) {
+      uint32_t lo = 0xffff;
+      for (int b = j - 1; b <= j + 1; ++b)
+        for (int a = i - 1; a <= i + 1; ++a)
+          if (a >= 0 && b >= 0 && a < tx && b < ty) {
+            const DepthTile& n = tiles[std::size_t(b) * tx + a];
+            if (n.max_raw != 0 && n.min_raw < lo) lo = n.min_raw;
+          }
+      tiles[std::size_t(j) * tx + i].near_raw = lo == 0xffff ? 0 : uint16_t(lo);
+    }
 }
 
 enum class BrickClass { kSkip, kFreeSpace, kVoxels };
 
-// Classifies a brick from its 8 corner voxel centres (camera frame) against the depth tiles.
+constexpr int kHalf = kBrickSide / 2;  // edge of the blocks a mixed brick is split into
+
+// Every voxel of the cube of `side` voxels starting at local index `first` of the brick at `base`
+// is seen at d >= trunc: a full-weight +1 sample, no projection needed.
+inline void free_space_update(int16_t* tsdf, uint8_t* weight, std::size_t base, int first, int side,
+                              uint8_t max_weight, int32_t full_weight, bool& surface) {
+  for (int lz = 0; lz < side; ++lz)
+    for (int ly = 0; ly < side; ++ly)
+      for (int lx = 0; lx < side; ++lx) {
+        const std::size_t idx = base + std::size_t(first + (lz << 6) + (ly << 3) + lx);
+        const int32_t old_w = weight[idx];
+        if (old_w == max_weight && tsdf[idx] == kTsdfMax) continue;
+        const int32_t value = old_w == 0 ? kTsdfMax : blend(tsdf[idx], old_w, kTsdfMax, full_weight);
+        tsdf[idx] = int16_t(value);
+        weight[idx] = cap_weight(old_w + full_weight, max_weight);
+        surface = surface || value < kTsdfMax;
+      }
+}
+
+// Classifies a box of voxels (a brick or a part of one) from its 8 corner voxel centres (camera
+// frame: c0 plus any sum of the span vectors) against the depth tiles.
 template <class Real>
-BrickClass classify_brick(const IntegrationJob<Real>& job, const Real c0[3], const Real span[3][3], Real near_z) {
+BrickClass classify_box(const IntegrationJob<Real>& job, const Real c0[3], const Real span[3][3], Real near_z) {
   const Real one = real_from_int<Real>(1);
   Real z_lo = c0[2], z_hi = c0[2];
   Real u_lo = real_from_int<Real>(1 << 20), u_hi = real_from_int<Real>(-(1 << 20));
@@ -248,11 +281,12 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
 
   // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
   // span: from the brick's first to its last voxel centre along each axis.
-  Real step[3][3], span[3][3];
+  Real step[3][3], span[3][3], half_span[3][3];
   for (int axis = 0; axis < 3; ++axis)
     for (int r = 0; r < 3; ++r) {
       step[axis][r] = job.R[r * 3 + axis] * job.voxel;
       span[axis][r] = step[axis][r] * real_from_int<Real>(kBrickSide - 1);
+      half_span[axis][r] = step[axis][r] * real_from_int<Real>(kHalf - 1);
     }
   const Real half = real_from<Real>(0.5f);
 
@@ -267,86 +301,105 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
     Real c0[3];
     for (int r = 0; r < 3; ++r) c0[r] = job.R[r * 3] * w0[0] + job.R[r * 3 + 1] * w0[1] + job.R[r * 3 + 2] * w0[2] + job.t[r];
 
-    const BrickClass cls = classify_brick(job, c0, span, near_z);
+    const BrickClass cls = classify_box(job, c0, span, near_z);
     if (cls == BrickClass::kSkip) continue;
     const std::size_t base = std::size_t(brick) * kBrickVoxels;
-    bool surface = false;
+    bool surface = false, observed = false;
     if (cls == BrickClass::kFreeSpace) {
-      // Every voxel is seen at d >= trunc: a full-weight +1 sample, no projection needed.
-      for (int k = 0; k < kBrickVoxels; ++k) {
-        const std::size_t idx = base + std::size_t(k);
-        const int32_t old_w = weight[idx];
-        if (old_w == max_weight && tsdf[idx] == kTsdfMax) continue;
-        const int32_t value = old_w == 0 ? kTsdfMax : blend(tsdf[idx], old_w, kTsdfMax, full_weight);
-        tsdf[idx] = int16_t(value);
-        weight[idx] = cap_weight(old_w + full_weight, max_weight);
-        surface = surface || value < kTsdfMax;
-      }
+      free_space_update(tsdf, weight, base, 0, kBrickSide, max_weight, full_weight, surface);
       flags[brick] |= surface ? (kBrickObserved | kBrickSurface) : kBrickObserved;
       continue;
     }
-
-    bool observed = false;
-    Real pz[3] = {c0[0], c0[1], c0[2]};
-    for (int lz = 0; lz < kBrickSide; ++lz) {
-      Real py[3] = {pz[0], pz[1], pz[2]};
-      for (int ly = 0; ly < kBrickSide; ++ly) {
-        Real p[3] = {py[0], py[1], py[2]};
-        const std::size_t row = base + std::size_t((lz << 6) | (ly << 3));
-        for (int lx = 0; lx < kBrickSide; ++lx, p[0] += step[0][0], p[1] += step[0][1], p[2] += step[0][2]) {
-          if (p[2] < near_z) continue;
-          const Real inv_z = real_from<Real>(1.0f) / p[2];
-          const Real pu = job.fx * (p[0] * inv_z) + job.cx;
-          const Real pv = job.fy * (p[1] * inv_z) + job.cy;
-          int iu, iv;
-          if (!pixel_of(pu, job.width, iu) || !pixel_of(pv, job.height, iv)) continue;
-          // Cheap exits on the nearest pixel before interpolating: no data, or certainly occluded
-          // (an interpolated depth is at most a depth jump beyond the nearest pixel's).
-          const uint16_t nearest = job.frame.depth.at(iu, iv);
-          if (nearest == 0) continue;
-          if (job.depth.metres(nearest) + job.jump - p[2] < zero - job.rho) continue;
-          Real z;
-          if (!depth_at(job, pu, pv, iu, iv, z)) continue;
-          if (z < job.min_z || z > job.max_z) continue;
-          // Eq. (1): (measured range) - (voxel range) along the ray = (z - p.z) |ray|.
-          const Real d = (z - p[2]) * job.ray_norms.at(iu, iv);
-          if (d <= zero - job.rho) continue;
-          // Eq. (2) from the table: full weight in front of -eps.
-          int32_t w = full_weight;
-          if (d < zero - job.eps) {
-            int32_t k = floor_int((zero - d - job.eps) * job.band_to_index);
-            k = k < 0 ? 0 : (k >= WeightTable::kSize ? WeightTable::kSize - 1 : k);
-            w = int32_t((shape[k] * job.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
-            if (w == 0) continue;
-          }
-          int32_t q = d >= job.trunc ? kTsdfMax : round_int(d * job.inv_trunc * q_scale);
-          q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
-
-          const std::size_t idx = row + std::size_t(lx);
-          const int32_t old_w = weight[idx];
-          const int32_t value = old_w == 0 ? q : blend(tsdf[idx], old_w, q, w);
-          tsdf[idx] = int16_t(value);
-          weight[idx] = cap_weight(old_w + w, max_weight);
-          observed = true;
-          surface = surface || (value < kTsdfMax && value > -kTsdfMax);
-
-          if (colour != nullptr && d < job.colour_band && d > zero - job.colour_band) {
-            const Rgb8 c = job.frame.colour.at(iu, iv);
-            const int32_t cw = colour_weight[idx];
-            Rgb8& v = colour[idx];
-            if (cw == 0) {
-              v = c;
-            } else {
-              v.r = uint8_t(blend(v.r, cw, c.r, w));
-              v.g = uint8_t(blend(v.g, cw, c.g, w));
-              v.b = uint8_t(blend(v.b, cw, c.b, w));
-            }
-            colour_weight[idx] = cap_weight(cw + w, max_weight);
-          }
-        }
-        for (int r = 0; r < 3; ++r) py[r] += step[1][r];
+    // A mixed brick: classify its eight 4^3 blocks, so that only those the surface band passes
+    // through are projected voxel by voxel.
+    for (int sb = 0; sb < 8; ++sb) {
+      const int off[3] = {(sb & 1) * kHalf, ((sb >> 1) & 1) * kHalf, ((sb >> 2) & 1) * kHalf};
+      Real cb[3];
+      for (int r = 0; r < 3; ++r)
+        cb[r] = c0[r] + step[0][r] * real_from_int<Real>(off[0]) + step[1][r] * real_from_int<Real>(off[1]) +
+                step[2][r] * real_from_int<Real>(off[2]);
+      const BrickClass sub = classify_box(job, cb, half_span, near_z);
+      if (sub == BrickClass::kSkip) continue;
+      const int first = (off[2] << 6) | (off[1] << 3) | off[0];
+      if (sub == BrickClass::kFreeSpace) {
+        free_space_update(tsdf, weight, base, first, kHalf, max_weight, full_weight, surface);
+        observed = true;
+        continue;
       }
-      for (int r = 0; r < 3; ++r) pz[r] += step[2][r];
+      Real pz[3] = {cb[0], cb[1], cb[2]};
+      for (int lz = 0; lz < kHalf; ++lz) {
+        Real py[3] = {pz[0], pz[1], pz[2]};
+        for (int ly = 0; ly < kHalf; ++ly) {
+          Real p[3] = {py[0], py[1], py[2]};
+          const std::size_t row = base + std::size_t(first + (lz << 6) + (ly << 3));
+          for (int lx = 0; lx < kHalf; ++lx, p[0] += step[0][0], p[1] += step[0][1], p[2] += step[0][2]) {
+            if (p[2] < near_z) continue;
+            const Real inv_z = real_from<Real>(1.0f) / p[2];
+            const Real pu = job.fx * (p[0] * inv_z) + job.cx;
+            const Real pv = job.fy * (p[1] * inv_z) + job.cy;
+            int iu, iv;
+            if (!pixel_of(pu, job.width, iu) || !pixel_of(pv, job.height, iv)) continue;
+            // Cheap exits on the nearest pixel before interpolating: no data; certainly occluded
+            // (an interpolated depth is at most a depth jump beyond the nearest pixel's);
+            // certainly free space (every pixel around is at least trunc beyond the voxel).
+            const uint16_t nearest = job.frame.depth.at(iu, iv);
+            if (nearest == 0) continue;
+            const Real z_near = job.depth.metres(nearest);
+            if (z_near + job.jump - p[2] < zero - job.rho) continue;
+            const std::size_t idx = row + std::size_t(lx);
+            const DepthTile& tile = job.tiles[std::size_t(iv >> 3) * job.tiles_x + std::size_t(iu >> 3)];
+            if (job.depth.metres(tile.near_raw) - p[2] >= job.trunc && z_near <= job.max_z && z_near >= job.min_z) {
+              const int32_t old_w = weight[idx];
+              if (old_w == max_weight && tsdf[idx] == kTsdfMax) continue;
+              const int32_t value = old_w == 0 ? kTsdfMax : blend(tsdf[idx], old_w, kTsdfMax, full_weight);
+              tsdf[idx] = int16_t(value);
+              weight[idx] = cap_weight(old_w + full_weight, max_weight);
+              observed = true;
+              surface = surface || value < kTsdfMax;
+              continue;
+            }
+            Real z;
+            if (!depth_at(job, pu, pv, iu, iv, z)) continue;
+            if (z < job.min_z || z > job.max_z) continue;
+            // Eq. (1): (measured range) - (voxel range) along the ray = (z - p.z) |ray|.
+            const Real d = (z - p[2]) * job.ray_norms.at(iu, iv);
+            if (d <= zero - job.rho) continue;
+            // Eq. (2) from the table: full weight in front of -eps.
+            int32_t w = full_weight;
+            if (d < zero - job.eps) {
+              int32_t k = floor_int((zero - d - job.eps) * job.band_to_index);
+              k = k < 0 ? 0 : (k >= WeightTable::kSize ? WeightTable::kSize - 1 : k);
+              w = int32_t((shape[k] * job.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
+              if (w == 0) continue;
+            }
+            int32_t q = d >= job.trunc ? kTsdfMax : round_int(d * job.inv_trunc * q_scale);
+            q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
+
+            const int32_t old_w = weight[idx];
+            const int32_t value = old_w == 0 ? q : blend(tsdf[idx], old_w, q, w);
+            tsdf[idx] = int16_t(value);
+            weight[idx] = cap_weight(old_w + w, max_weight);
+            observed = true;
+            surface = surface || (value < kTsdfMax && value > -kTsdfMax);
+
+            if (colour != nullptr && d < job.colour_band && d > zero - job.colour_band) {
+              const Rgb8 c = job.frame.colour.at(iu, iv);
+              const int32_t cw = colour_weight[idx];
+              Rgb8& v = colour[idx];
+              if (cw == 0) {
+                v = c;
+              } else {
+                v.r = uint8_t(blend(v.r, cw, c.r, w));
+                v.g = uint8_t(blend(v.g, cw, c.g, w));
+                v.b = uint8_t(blend(v.b, cw, c.b, w));
+              }
+              colour_weight[idx] = cap_weight(cw + w, max_weight);
+            }
+          }
+          for (int r = 0; r < 3; ++r) py[r] += step[1][r];
+        }
+        for (int r = 0; r < 3; ++r) pz[r] += step[2][r];
+      }
     }
     if (observed) flags[brick] |= kBrickObserved;
     if (surface) flags[brick] |= kBrickSurface;

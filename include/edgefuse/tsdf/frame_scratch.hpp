@@ -12,9 +12,10 @@
 namespace edgefuse {
 
 struct DepthTile {
-  uint16_t min_raw = 0;    //!< smallest valid raw depth (0: none valid)
-  uint16_t max_raw = 0;    //!< largest valid raw depth
-  uint8_t all_valid = 0;   //!< every pixel of the tile has a depth
+  uint16_t min_raw = 0;     //!< smallest valid raw depth (0: none valid)
+  uint16_t max_raw = 0;     //!< largest valid raw depth
+  uint16_t near_raw = 0;    //!< smallest valid raw depth of this tile and its 8 neighbours (0: none)
+  uint8_t all_valid = 0;    //!< every pixel of the tile has a depth
   uint8_t pad = 0;
 };
 
