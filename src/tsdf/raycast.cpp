@@ -181,7 +181,9 @@ template <class Real>
 void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
                   const RaycastMaps& maps, const FrameScratch& scratch, int row_begin, int row_end) {
   const int tiles_x = FrameScratch::tiles_x(intr.width);
-  const Real margin = real_from<Real>(volume.params().trunc_m);
+  // The positive band in front of a surface has |tsdf| < 1, so it belongs to surface bricks too:
+  // starting at the tiles' near bound still leaves a positive sample before every crossing.
+  const Real margin = real_from<Real>(volume.voxel_m());
   const RayFrame<Real> f = make_ray_frame<Real>(volume, intr, T_world_cam);
   const TsdfSampler<Real> sampler(volume);
   const uint8_t* flags = volume.brick_flags();
@@ -215,7 +217,7 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
       // From a voxel at +trunc the surface is at least trunc minus half a voxel diagonal away.
       const Real far_step = max_r((f.trunc - f.voxel) * z_per_m, min_step);
 
-      // The z range where this tile's surface bricks lie, widened by a truncation.
+      // The z range where this tile's surface bricks lie (and a voxel of slack).
       const std::size_t tile = std::size_t(v / FrameScratch::kTile) * tiles_x + std::size_t(u / FrameScratch::kTile);
       if (scratch.model_max_z[tile] < 0.0f) continue;
       Real t = max_r(f.min_z, real_from<Real>(scratch.model_min_z[tile]) - margin);
