@@ -18,7 +18,9 @@ long alloc_count() { return g_allocations.load(); }
 }  // namespace edgefuse_test
 
 #if defined(__SANITIZE_ADDRESS__)
-#include <sanitizer/allocator_interface.h>
+// Declared here: GCC ships libasan (which exports it) but not LLVM's allocator_interface.h.
+extern "C" int __sanitizer_install_malloc_and_free_hooks(void (*)(const volatile void*, std::size_t),
+                                                         void (*)(const volatile void*));
 namespace {
 void on_malloc(const volatile void*, std::size_t) { g_allocations.fetch_add(1, std::memory_order_relaxed); }
 void on_free(const volatile void*) {}
