@@ -239,8 +239,11 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
         if ((bf & (kBrickNearSurface | kBrickObserved)) != (kBrickNearSurface | kBrickObserved)) {
           // No surface in or next to this brick, or nothing observed in it (then every cell based
           // here has an unobserved corner): leave it whole.
+          // A ray grazing a brick face can sit exactly on it: when the nudge is lost to rounding
+          // (the exit is where we are), move on by half a voxel so the march always advances.
           int axis;
-          t = brick_exit(f, gd, cell, axis) + nudge;
+          const Real t_next = brick_exit(f, gd, cell, axis) + nudge;
+          t = t_next > t + nudge ? t_next : t + min_step;
           prev_valid = false;
           continue;
         }
