@@ -68,36 +68,8 @@ bool write_camera_toml(const std::string& path, const CameraToml& cam, std::stri
 
 bool read_intrinsics_matrix_txt(const std::string& path, float& fx, float& fy, float& cx, float& cy,
                                 std::string& err) {
-  std::string text;
-  if (!detail::read_file(path, text, err)) return false;
-  if (text.empty()) {
-    err = path + ": empty file, expected a 3x3 intrinsics matrix";
-    return false;
-  }
-  std::vector<std::string_view> tok;
   double k[9];
-  int n = 0;
-  detail::LineReader lines(text);
-  std::string_view line;
-  while (lines.next(line)) {
-    if (detail::is_blank_or_comment(line)) continue;
-    detail::split_ws(line, tok);
-    for (std::string_view t : tok) {
-      if (n == 9) {
-        err = format("%s:%d: more than 9 numbers, expected a 3x3 matrix", path.c_str(), lines.line_number());
-        return false;
-      }
-      if (!detail::parse_double(t, k[n]) || !std::isfinite(k[n])) {
-        err = format("%s:%d: not a finite number: %s", path.c_str(), lines.line_number(), detail::quote(t).c_str());
-        return false;
-      }
-      ++n;
-    }
-  }
-  if (n != 9) {
-    err = format("%s: holds %d numbers, expected 9 (3x3 matrix)", path.c_str(), n);
-    return false;
-  }
+  if (!detail::read_number_matrix(path, 3, 3, "intrinsics matrix", k, err)) return false;
   if (k[1] != 0 || k[3] != 0 || k[6] != 0 || k[7] != 0 || k[8] != 1) {
     err = path + ": not a pinhole K matrix (expected [fx 0 cx; 0 fy cy; 0 0 1])";
     return false;

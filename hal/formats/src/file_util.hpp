@@ -2,6 +2,8 @@
 #pragma once
 
 #include <cstddef>
+#include <exception>
+#include <new>
 #include <string>
 
 namespace edgefuse::io::detail {
@@ -24,5 +26,19 @@ bool is_directory(const std::string& path);
 
 //! printf into a std::string (messages only).
 std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
+
+//! Runs a reader/writer body, turning any exception (bad_alloc on a huge but plausible size,
+//! a library error) into a message naming the file: exceptions never leave the API.
+template <class F>
+bool guarded(const std::string& path, std::string& err, F&& f) {
+  try {
+    return f();
+  } catch (const std::bad_alloc&) {
+    err = path + ": out of memory";
+  } catch (const std::exception& e) {
+    err = path + ": " + e.what();
+  }
+  return false;
+}
 
 }  // namespace edgefuse::io::detail

@@ -298,22 +298,10 @@ bool read_body(const std::string& path, bool want_faces, Body& out, std::string&
   return true;
 }
 
-template <class F>
-bool guarded(const std::string& path, std::string& err, F&& f) {
-  try {
-    return f();
-  } catch (const std::bad_alloc&) {
-    err = path + ": out of memory";
-  } catch (const std::exception& e) {
-    err = path + ": " + e.what();
-  }
-  return false;
-}
-
 }  // namespace
 
 bool read_ply(const std::string& path, PointCloud& cloud, std::string& err) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     Body b;
     if (!read_body(path, false, b, err)) return false;
     PointCloud out;
@@ -329,7 +317,7 @@ bool read_ply(const std::string& path, PointCloud& cloud, std::string& err) {
 }
 
 bool read_ply(const std::string& path, TriangleMesh& mesh, std::string& err) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     Body b;
     if (!read_body(path, true, b, err)) return false;
     TriangleMesh out;

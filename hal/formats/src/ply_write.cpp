@@ -78,22 +78,10 @@ void append_vertices(std::string& s, const VertexData& v, PlyEncoding enc) {
   }
 }
 
-template <class F>
-bool guarded(const std::string& path, std::string& err, F&& f) {
-  try {
-    return f();
-  } catch (const std::bad_alloc&) {
-    err = path + ": out of memory";
-  } catch (const std::exception& e) {
-    err = path + ": " + e.what();
-  }
-  return false;
-}
-
 }  // namespace
 
 bool write_ply(const std::string& path, const PointCloud& cloud, std::string& err, PlyEncoding enc) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     const VertexData v{cloud.points, cloud.normals, cloud.colours, &cloud.labels};
     if (!check_attributes(path, v, err)) return false;
     std::string s = header(v, 0, false, enc);
@@ -103,7 +91,7 @@ bool write_ply(const std::string& path, const PointCloud& cloud, std::string& er
 }
 
 bool write_ply(const std::string& path, const TriangleMesh& mesh, std::string& err, PlyEncoding enc) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     const VertexData v{mesh.vertices, mesh.normals, mesh.colours, nullptr};
     if (!check_attributes(path, v, err)) return false;
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t)

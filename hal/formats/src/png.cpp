@@ -249,23 +249,11 @@ bool check_size(const std::string& path, std::size_t n, int w, int h, std::strin
   return true;
 }
 
-// Exceptions (bad_alloc on a huge but plausible image) must not leave the API.
-template <class F>
-bool guarded(const std::string& path, std::string& err, F&& f) {
-  try {
-    return f();
-  } catch (const std::bad_alloc&) {
-    err = path + ": out of memory";
-  } catch (const std::exception& e) {
-    err = path + ": " + e.what();
-  }
-  return false;
-}
 
 }  // namespace
 
 bool read_png_info(const std::string& path, int& w, int& h, int& bit_depth, int& colour_type, std::string& err) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     std::vector<unsigned char> none;
     HeaderInfo hi;
     if (!decode(path, Mode::kInfo, none, hi, err)) return false;
@@ -278,7 +266,7 @@ bool read_png_info(const std::string& path, int& w, int& h, int& bit_depth, int&
 }
 
 bool read_png_u16(const std::string& path, std::vector<uint16_t>& px, int& w, int& h, std::string& err) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     std::vector<unsigned char> bytes;
     HeaderInfo hi;
     if (!decode(path, Mode::kU16, bytes, hi, err)) return false;
@@ -295,7 +283,7 @@ bool read_png_u16(const std::string& path, std::vector<uint16_t>& px, int& w, in
 }
 
 bool read_png_rgb8(const std::string& path, std::vector<Rgb8>& px, int& w, int& h, std::string& err) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     std::vector<unsigned char> bytes;
     HeaderInfo hi;
     if (!decode(path, Mode::kRgb8, bytes, hi, err)) return false;
@@ -317,7 +305,7 @@ bool read_png_rgb8(const std::string& path, std::vector<Rgb8>& px, int& w, int& 
 }
 
 bool write_png_u16(const std::string& path, const std::vector<uint16_t>& px, int w, int h, std::string& err) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     if (!check_size(path, px.size(), w, h, err)) return false;
     std::vector<unsigned char> bytes(px.size() * 2);
     for (std::size_t i = 0; i < px.size(); ++i) {
@@ -329,7 +317,7 @@ bool write_png_u16(const std::string& path, const std::vector<uint16_t>& px, int
 }
 
 bool write_png_rgb8(const std::string& path, const std::vector<Rgb8>& px, int w, int h, std::string& err) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     if (!check_size(path, px.size(), w, h, err)) return false;
     std::vector<unsigned char> bytes(px.size() * 3);
     for (std::size_t i = 0; i < px.size(); ++i) {

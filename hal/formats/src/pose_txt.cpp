@@ -28,36 +28,8 @@ bool detail::pose_from_tq_tokens(const std::string_view* tok, Pose& T, std::stri
 }
 
 bool read_pose_matrix_txt(const std::string& path, Pose& T, std::string& err) {
-  std::string text;
-  if (!detail::read_file(path, text, err)) return false;
-  if (text.empty()) {
-    err = path + ": empty file, expected a 4x4 pose matrix";
-    return false;
-  }
-  std::vector<std::string_view> tok;
   double m[16];
-  int n = 0;
-  detail::LineReader lines(text);
-  std::string_view line;
-  while (lines.next(line)) {
-    if (detail::is_blank_or_comment(line)) continue;
-    detail::split_ws(line, tok);
-    for (std::string_view t : tok) {
-      if (n == 16) {
-        err = format("%s:%d: more than 16 numbers, expected a 4x4 matrix", path.c_str(), lines.line_number());
-        return false;
-      }
-      if (!detail::parse_double(t, m[n]) || !std::isfinite(m[n]) || std::fabs(m[n]) > 1e30) {
-        err = format("%s:%d: not a finite number: %s", path.c_str(), lines.line_number(), detail::quote(t).c_str());
-        return false;
-      }
-      ++n;
-    }
-  }
-  if (n != 16) {
-    err = format("%s: holds %d numbers, expected 16 (4x4 matrix)", path.c_str(), n);
-    return false;
-  }
+  if (!detail::read_number_matrix(path, 4, 4, "pose matrix", m, err)) return false;
   if (m[12] != 0 || m[13] != 0 || m[14] != 0 || m[15] != 1) {
     err = format("%s: last row is %g %g %g %g, expected 0 0 0 1", path.c_str(), m[12], m[13], m[14], m[15]);
     return false;

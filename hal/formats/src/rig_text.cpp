@@ -36,22 +36,10 @@ bool for_each_record(const std::string& path, const char* what, std::string& err
   return true;
 }
 
-template <class F>
-bool guarded(const std::string& path, std::string& err, F&& f) {
-  try {
-    return f();
-  } catch (const std::bad_alloc&) {
-    err = path + ": out of memory";
-  } catch (const std::exception& e) {
-    err = path + ": " + e.what();
-  }
-  return false;
-}
-
 }  // namespace
 
 bool read_objects_txt(const std::string& path, std::vector<ObjectPose>& objects, std::string& err) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     std::vector<ObjectPose> out;
     const bool ok = for_each_record(path, "object poses", err, [&](int ln, const std::vector<std::string_view>& t) {
       if (t.size() != 8) {
@@ -84,7 +72,7 @@ bool read_objects_txt(const std::string& path, std::vector<ObjectPose>& objects,
 }
 
 bool read_extrinsics_txt(const std::string& path, std::vector<SensorExtrinsic>& extrinsics, std::string& err) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     std::vector<SensorExtrinsic> out;
     const bool ok = for_each_record(path, "sensor extrinsics", err, [&](int ln, const std::vector<std::string_view>& t) {
       if (t.size() != 9) {
@@ -109,7 +97,7 @@ bool read_extrinsics_txt(const std::string& path, std::vector<SensorExtrinsic>& 
 }
 
 bool read_profiles_txt(const std::string& path, int beams, ProfileSet& profiles, std::string& err) {
-  return guarded(path, err, [&] {
+  return detail::guarded(path, err, [&] {
     if (beams < 2) {
       err = format("%s: cannot read profiles of %d beams", path.c_str(), beams);
       return false;
@@ -164,7 +152,7 @@ bool open_line_scan(const RigToml& rig, const std::string& sensor_name, LineScan
     err = rig_path + ": sensor '" + sensor_name + "' is not a line_scanner";
     return false;
   }
-  return guarded(rig_path, err, [&] {
+  return detail::guarded(rig_path, err, [&] {
     LineScan out;
     out.sensor = *s;
     const std::string dir = detail::join_path(rig.root, s->name);
@@ -189,7 +177,7 @@ bool open_line_scan(const RigToml& rig, const std::string& sensor_name, LineScan
 
 bool open_rig_set(const std::string& folder, RigSet& set, std::string& err) {
   const std::string rig_path = detail::join_path(folder, "rig.toml");
-  return guarded(rig_path, err, [&] {
+  return detail::guarded(rig_path, err, [&] {
     RigSet out;
     if (!read_rig_toml(rig_path, out.rig, err)) return false;
     const std::string obj_path = detail::join_path(folder, "objects.txt");

@@ -1,6 +1,9 @@
 #include "text_util.hpp"
 
+#include "file_util.hpp"
+
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 
 namespace edgefuse::io::detail {
@@ -81,6 +84,42 @@ std::string quote(std::string_view tok) {
   }
   if (tok.size() > n) s += "...";
   return s + "'";
+}
+
+bool read_number_matrix(const std::string& path, int rows, int cols, const char* what, double* out,
+                        std::string& err) {
+  const int count = rows * cols;
+  std::string text;
+  if (!read_file(path, text, err)) return false;
+  if (text.empty()) {
+    err = format("%s: empty file, expected a %dx%d %s", path.c_str(), rows, cols, what);
+    return false;
+  }
+  std::vector<std::string_view> tok;
+  int n = 0;
+  LineReader lines(text);
+  std::string_view line;
+  while (lines.next(line)) {
+    if (is_blank_or_comment(line)) continue;
+    split_ws(line, tok);
+    for (std::string_view t : tok) {
+      if (n == count) {
+        err = format("%s:%d: more than %d numbers, expected a %dx%d matrix", path.c_str(), lines.line_number(), count,
+                     rows, cols);
+        return false;
+      }
+      if (!parse_double(t, out[n]) || !std::isfinite(out[n]) || std::fabs(out[n]) > 1e30) {
+        err = format("%s:%d: not a finite number: %s", path.c_str(), lines.line_number(), quote(t).c_str());
+        return false;
+      }
+      ++n;
+    }
+  }
+  if (n != count) {
+    err = format("%s: holds %d numbers, expected %d (%dx%d matrix)", path.c_str(), n, count, rows, cols);
+    return false;
+  }
+  return true;
 }
 
 }  // namespace edgefuse::io::detail

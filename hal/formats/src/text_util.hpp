@@ -43,4 +43,9 @@ bool parse_uint64(std::string_view tok, uint64_t& v);
 //! Short printable quote of a token for messages (clipped, control bytes escaped).
 std::string quote(std::string_view tok);
 
+//! Reads a file holding exactly rows x cols whitespace-separated finite numbers (|v| <= 1e30,
+//! comments and blank lines allowed) into `out`, row-major. `what` names the matrix in messages.
+bool read_number_matrix(const std::string& path, int rows, int cols, const char* what, double* out,
+                        std::string& err);
+
 }  // namespace edgefuse::io::detail
