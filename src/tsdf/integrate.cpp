@@ -217,6 +217,8 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
   job.band_to_index = real_from<Real>(float(WeightTable::kSize) / (p.weight.rho_m - p.weight.eps_m));
   job.colour_band = real_from<Real>(p.colour_band_m > 0.0f ? p.colour_band_m : p.weight.eps_m);
   job.voxel = real_from<Real>(p.voxel_m);
+  job.voxel_m = p.voxel_m;
+  for (int r = 0; r < 3; ++r) job.origin_m[r] = volume.origin_m()(r);
   job.trust_q8 = uint32_t(std::lround(trust * 256.0f));
   if (job.trust_q8 == 0) job.trust_q8 = 1;
   const float jump = std::round(p.trunc_m * intr.depth_scale);
@@ -288,16 +290,16 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
       span[axis][r] = step[axis][r] * real_from_int<Real>(kBrickSide - 1);
       half_span[axis][r] = step[axis][r] * real_from_int<Real>(kHalf - 1);
     }
-  const Real half = real_from<Real>(0.5f);
-
   for (std::size_t i = begin; i < end; ++i) {
     const uint32_t brick = list[i];
     int bx, by, bz;
     volume.brick_coords(brick, bx, by, bz);
-    // World centre of the brick's first voxel, then into the camera frame.
-    const Real w0[3] = {job.origin[0] + (real_from_int<Real>(bx * kBrickSide) + half) * job.voxel,
-                        job.origin[1] + (real_from_int<Real>(by * kBrickSide) + half) * job.voxel,
-                        job.origin[2] + (real_from_int<Real>(bz * kBrickSide) + half) * job.voxel};
+    // World centre of the brick's first voxel, then into the camera frame. Placed from the exact
+    // voxel size once per brick: in Q16 the rounded voxel size times a grid index would shift
+    // voxels by up to ~1e-3 relative, far from the origin (the raycast uses the exact 1/voxel).
+    const Real w0[3] = {real_from<Real>(job.origin_m[0] + (float(bx * kBrickSide) + 0.5f) * job.voxel_m),
+                        real_from<Real>(job.origin_m[1] + (float(by * kBrickSide) + 0.5f) * job.voxel_m),
+                        real_from<Real>(job.origin_m[2] + (float(bz * kBrickSide) + 0.5f) * job.voxel_m)};
     Real c0[3];
     for (int r = 0; r < 3; ++r) c0[r] = job.R[r * 3] * w0[0] + job.R[r * 3 + 1] * w0[1] + job.R[r * 3 + 2] * w0[2] + job.t[r];
 

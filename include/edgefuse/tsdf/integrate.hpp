@@ -57,6 +57,8 @@ struct IntegrationJob {
   Real colour_band;
   Real voxel;
   Real origin[3];
+  float voxel_m;             //!< exact voxel size and origin, to place each brick once
+  float origin_m[3];
   uint32_t trust_q8 = 256;   //!< sensor trust factor in 1/256 (256 = full)
   uint32_t jump_raw = 0;     //!< raw depth difference counted as a discontinuity (= trunc)
   Real jump;                 //!< the same in metres
