@@ -34,6 +34,11 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   out.points = static_cast<SurfacePoint*>(at(Region::kSurfacePoints));
   out.mesh_scratch.edge_ids = static_cast<uint32_t*>(at(Region::kMeshScratch));
   out.mesh_scratch.capacity = MeshScratch::entries_for(c.volume_dim);
+  out.pyramid_vertex = at(Region::kPyramidVertex);
+  out.pyramid_normal = at(Region::kPyramidNormal);
+  out.icp_rows = at(Region::kIcpRowSums);
+  out.pyramid_points_per_sensor = pyramid_pixels(c.image_width_max, c.image_height_max);
+  out.icp_row_bytes_per_sensor = std::size_t(c.image_height_max) * kIcpRowBytes;
   out.pixels_per_sensor = std::size_t(c.image_width_max) * std::size_t(c.image_height_max);
   out.tiles_per_sensor = FrameScratch::tiles_for(c.image_width_max, c.image_height_max);
   return Status::kOk;

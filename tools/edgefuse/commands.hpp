@@ -6,5 +6,7 @@ namespace edgefuse::cli {
 
 int cmd_fuse(int argc, char** argv);
 int cmd_memmap(int argc, char** argv);
+int cmd_track(int argc, char** argv);
+int cmd_eval(int argc, char** argv);
 
 }  // namespace edgefuse::cli

@@ -17,6 +17,8 @@ struct Command {
 const Command kCommands[] = {
     {"fuse", edgefuse::cli::cmd_fuse, "integrate a data set at its ground-truth poses, write the cloud / mesh"},
     {"memmap", edgefuse::cli::cmd_memmap, "print a board's static memory map"},
+    {"track", edgefuse::cli::cmd_track, "track the sensor by ICP against the fused model, fuse, write the trajectory"},
+    {"eval", edgefuse::cli::cmd_eval, "trajectory accuracy: ATE (aligned) / RPE against ground truth, as TUM's tools"},
 };
 
 void usage(std::FILE* out) {

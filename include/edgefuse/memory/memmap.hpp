@@ -10,6 +10,7 @@
 #include "edgefuse/core/status.hpp"
 #include "edgefuse/math/pose.hpp"
 #include "edgefuse/memory/capacities.hpp"
+#include "edgefuse/tracking/icp.hpp"
 #include "edgefuse/tsdf/extract.hpp"
 #include "edgefuse/tsdf/frame_scratch.hpp"
 #include "edgefuse/tsdf/volume.hpp"
@@ -35,6 +36,9 @@ enum class Region : int {
   kModelTilesMax,
   kSurfacePoints,   //!< extracted / fused cloud
   kMeshScratch,     //!< marching-cubes slice tables
+  kPyramidVertex,   //!< tracking: the frame's vertex maps, all pyramid levels, per sensor
+  kPyramidNormal,   //!< tracking: the frame's normal maps, all pyramid levels, per sensor
+  kIcpRowSums,      //!< tracking: ICP per-row partial sums per sensor
   kCount
 };
 
@@ -79,6 +83,10 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kSurfacePoints, "surface points", uint64_t(c.points_max) * sizeof(SurfacePoint));
   set(Region::kMeshScratch, "mesh slice tables",
       uint64_t(MeshScratch::entries_for(c.volume_dim)) * sizeof(uint32_t));
+  const uint64_t pyramid = uint64_t(pyramid_pixels(c.image_width_max, c.image_height_max)) * c.sensors_max;
+  set(Region::kPyramidVertex, "frame pyramid vertices", pyramid * sizeof(Point3<float>));
+  set(Region::kPyramidNormal, "frame pyramid normals", pyramid * sizeof(Point3<float>));
+  set(Region::kIcpRowSums, "icp row sums", uint64_t(c.image_height_max) * kIcpRowBytes * c.sensors_max);
   uint64_t total = 0;
   for (const MemoryRegion& r : m.regions) total += align_up(r.bytes, kRegionAlign);
   m.total_bytes = total;
@@ -100,8 +108,27 @@ struct CoreBuffers {
   float* model_max_z = nullptr;
   SurfacePoint* points = nullptr;
   MeshScratch mesh_scratch;
+  void* pyramid_vertex = nullptr;     //!< Point3<float> or Point3<Fixed> (both 12 bytes)
+  void* pyramid_normal = nullptr;     //!< the same
+  void* icp_rows = nullptr;           //!< IcpSums of either build, kIcpRowBytes per row
   std::size_t pixels_per_sensor = 0;  //!< stride between the sensors' images in each region
   std::size_t tiles_per_sensor = 0;   //!< stride between the sensors' tile arrays
+  std::size_t pyramid_points_per_sensor = 0;  //!< points of one sensor's pyramid map (all levels)
+  std::size_t icp_row_bytes_per_sensor = 0;   //!< bytes of one sensor's ICP row sums
+
+  //! The frame pyramid of sensor i, bound to intr (kCapacityExceeded when it does not fit).
+  template <class Real>
+  Status pyramid(int sensor, const PinholeIntrinsics& intr, FramePyramid<Real>& out) const {
+    auto* base_v = static_cast<Point3<Real>*>(pyramid_vertex) + std::size_t(sensor) * pyramid_points_per_sensor;
+    auto* base_n = static_cast<Point3<Real>*>(pyramid_normal) + std::size_t(sensor) * pyramid_points_per_sensor;
+    return bind_pyramid<Real>(intr, base_v, base_n, pyramid_points_per_sensor, out);
+  }
+  //! The ICP row sums of sensor i.
+  template <class Real>
+  IcpWorkspace<Real> icp_workspace(int sensor) const {
+    return IcpWorkspace<Real>::bind(static_cast<uint8_t*>(icp_rows) + std::size_t(sensor) * icp_row_bytes_per_sensor,
+                                    icp_row_bytes_per_sensor);
+  }
 
   //! The tile scratch of sensor i (0 <= i < sensors_max).
   FrameScratch scratch(int sensor) const {
