@@ -1,0 +1,43 @@
+// The per-voxel running average shared by every sensor model's integration (pinhole, line
+// scanner): integer blending with a reciprocal table, so float and fixed builds store identical
+// voxels and no hardware division runs per voxel. Private to src/.
+#pragma once
+
+#include <cstdint>
+
+namespace edgefuse {
+namespace voxel_update {
+
+// 2^32 / n rounded up, for n = 1 .. 511: the running average divides by (old + new weight) <= 263
+// without a hardware division per voxel.
+struct Reciprocals {
+  uint32_t v[512] = {};
+  constexpr Reciprocals() {
+    for (uint32_t n = 1; n < 512; ++n) v[n] = uint32_t((uint64_t(1) << 32) / n + 1);
+  }
+};
+inline constexpr Reciprocals kReciprocals;
+
+// Weighted running average of two integer samples, rounded to nearest (ties away from zero).
+// |num| < 2^24, so num * (2^32/den + 1) >> 32 is the exact quotient up to 2^-8.
+inline int32_t blend(int32_t old_value, int32_t old_weight, int32_t sample, int32_t sample_weight) {
+  const int32_t num = old_value * old_weight + sample * sample_weight;
+  const uint32_t den = uint32_t(old_weight + sample_weight);
+  const uint64_t mag = uint64_t(num >= 0 ? num : -num) + den / 2;
+  const int32_t q = int32_t((mag * kReciprocals.v[den]) >> 32);
+  return num >= 0 ? q : -q;
+}
+
+inline uint8_t cap_weight(int32_t w, uint8_t max_weight) { return uint8_t(w > max_weight ? max_weight : w); }
+
+// Scales a weight by a per-pixel trust in 1/255 (255 = full). A sample with trust > 0 keeps at
+// least one weight unit, so a low-trust sensor still fills space no other sensor sees.
+inline int32_t scale_by_trust(int32_t w, uint32_t trust_255) {
+  if (trust_255 >= 255u) return w;
+  if (trust_255 == 0u) return 0;
+  const int32_t s = int32_t((uint32_t(w) * trust_255 + 127u) / 255u);
+  return s > 0 ? s : 1;
+}
+
+}  // namespace voxel_update
+}  // namespace edgefuse
