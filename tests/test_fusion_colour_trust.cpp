@@ -143,11 +143,10 @@ TEST(FusionColour, NoiseModels) {
 }
 
 // A trusted and a distrusted sensor disagree by 2 cm on a wall: the fused surface lies close to
-// the trusted one (weights 8 : 1 units per sample -> 1/9 of the way).
+// the trusted one. Trust 1/4 -> 2 of 8 weight units per sample: 2/10 of the way. A sub-unit sample
+// (trust 1/255) fills an empty voxel at one unit but is skipped where a full sample exists.
 TEST(FusionColour, TrustScalesTheWeight) {
   TsdfVolume vol;
-  CHECK(vol.init(g_storage.view(false), kDim, Vec3f(-0.32f, -0.32f, 0.5f), TsdfParams::defaults_for(kVoxel, 4 * kVoxel)) ==
-        Status::kOk);
   const PinholeIntrinsics c = cam(160, 120, 150.0f);
   Scene near_wall, far_wall;
   near_wall.add_plane(Vec3f(0, 0, -1), 0.80f);
@@ -155,18 +154,30 @@ TEST(FusionColour, TrustScalesTheWeight) {
   std::vector<uint16_t> d1, d2;
   render(near_wall, c, Pose(), d1);
   render(far_wall, c, Pose(), d2);
-  std::vector<uint8_t> low(d2.size(), 1);  // trust 1/255 -> the minimum weight (1 of 8 units)
+  std::vector<uint8_t> quarter(d2.size(), 64), tiny(d2.size(), 1);
   FrameScratch s = g_tof.scratch();
   const ImageView<const float> norms = g_tof.ray_norms(c);
-  CHECK(integrate<float>(vol, c, norms, DepthFrame{ImageView<const uint16_t>(d1.data(), 160, 120), {}}, Pose(), s) ==
-        Status::kOk);
-  DepthFrame f2{ImageView<const uint16_t>(d2.data(), 160, 120), {}};
-  f2.trust = ImageView<const uint8_t>(low.data(), 160, 120);
-  CHECK(integrate<float>(vol, c, norms, f2, Pose(), s) == Status::kOk);
   RaycastMaps maps;
   maps.depth_m = ImageView<float>(g_depth_m, 160, 120);
-  CHECK(raycast<float>(vol, c, Pose(), maps, s) == Status::kOk);
-  const float z = maps.depth_m.at(80, 60);
-  std::printf("\n  trusted 0.800 m + distrusted 0.820 m -> %.4f m\n", z);
-  DOUBLES_EQUAL(0.80 + 0.02 / 9.0, z, 0.001);
+  auto fused_z = [&](const std::vector<uint8_t>* trust_far, bool near_first) {
+    CHECK(vol.init(g_storage.view(false), kDim, Vec3f(-0.32f, -0.32f, 0.5f),
+                   TsdfParams::defaults_for(kVoxel, 4 * kVoxel)) == Status::kOk);
+    DepthFrame f1{ImageView<const uint16_t>(d1.data(), 160, 120), {}};
+    DepthFrame f2{ImageView<const uint16_t>(d2.data(), 160, 120), {}};
+    if (trust_far != nullptr) f2.trust = ImageView<const uint8_t>(trust_far->data(), 160, 120);
+    if (near_first) CHECK(integrate<float>(vol, c, norms, f1, Pose(), s) == Status::kOk);
+    CHECK(integrate<float>(vol, c, norms, f2, Pose(), s) == Status::kOk);
+    CHECK(raycast<float>(vol, c, Pose(), maps, s) == Status::kOk);
+    return maps.depth_m.at(80, 60);
+  };
+  const float z_equal = fused_z(nullptr, true);
+  const float z_quarter = fused_z(&quarter, true);
+  const float z_tiny = fused_z(&tiny, true);
+  const float z_alone = fused_z(&tiny, false);
+  std::printf("\n  0.800 m (trust 1) + 0.820 m (trust 1 / 0.25 / 1/255): %.4f / %.4f / %.4f m; 1/255 alone %.4f m\n",
+              z_equal, z_quarter, z_tiny, z_alone);
+  DOUBLES_EQUAL(0.81, z_equal, 0.001);
+  DOUBLES_EQUAL(0.80 + 0.02 * 2.0 / 10.0, z_quarter, 0.001);
+  DOUBLES_EQUAL(0.80, z_tiny, 0.0005);
+  DOUBLES_EQUAL(0.82, z_alone, 0.0005);
 }

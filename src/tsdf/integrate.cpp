@@ -364,7 +364,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               if (w == 0) continue;
             }
             if (has_trust) {
-              w = voxel_update::scale_by_trust(w, job.frame.trust.at(iu, iv));
+              w = voxel_update::scale_by_trust(w, job.frame.trust.at(iu, iv), weight[idx]);
               if (w == 0) continue;
             }
             int32_t q = d >= job.trunc ? kTsdfMax : round_int(d * job.inv_trunc * q_scale);

@@ -30,13 +30,20 @@ inline int32_t blend(int32_t old_value, int32_t old_weight, int32_t sample, int3
 
 inline uint8_t cap_weight(int32_t w, uint8_t max_weight) { return uint8_t(w > max_weight ? max_weight : w); }
 
-// Scales a weight by a per-pixel trust in 1/255 (255 = full). A sample with trust > 0 keeps at
-// least one weight unit, so a low-trust sensor still fills space no other sensor sees.
-inline int32_t scale_by_trust(int32_t w, uint32_t trust_255) {
+// Scales a weight by a per-pixel trust in 1/255 (255 = full). The weight's unit is 1/8 of a
+// full sample, too coarse for a sample worth a few hundredths (ToF next to structured light:
+// (1.4 / 6.7)^2 = 0.04 of a sample). Such a sub-unit sample:
+//   - fills a voxel that holds less than one full sample (old_weight < kWeightUnitsPerSample) at
+//     the minimum weight of one unit: where only the noisy sensor sees, its samples all count
+//     alike, as they should;
+//   - is skipped where the voxel already holds at least one full sample: one unit would give it
+//     several times its share against the better sensor's samples (rounding to nearest).
+inline int32_t scale_by_trust(int32_t w, uint32_t trust_255, int32_t old_weight) {
   if (trust_255 >= 255u) return w;
   if (trust_255 == 0u) return 0;
   const int32_t s = int32_t((uint32_t(w) * trust_255 + 127u) / 255u);
-  return s > 0 ? s : 1;
+  if (s > 0) return s;
+  return old_weight < 8 ? 1 : 0;
 }
 
 }  // namespace voxel_update
