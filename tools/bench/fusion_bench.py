@@ -169,7 +169,8 @@ def main():
     runs = [("xtion", ["--sensors", "xtion"]), ("tof", ["--sensors", "tof"]), ("laser", ["--sensors", "laser"]),
             ("fused (true extrinsics)", ["--sensors", "xtion,tof,laser"]),
             ("fused (calibrated)", ["--sensors", "xtion,tof,laser", "--extrinsics", extr]),
-            ("fused, equal weights", ["--sensors", "xtion,tof,laser", "--no-trust"])]
+            ("fused, equal weights", ["--sensors", "xtion,tof,laser", "--no-trust"]),
+            ("fused, --min-weight 12", ["--sensors", "xtion,tof,laser", "--min-weight", "12"])]
     clouds = {}
     for name, opts in runs:
         path = os.path.join(a.workdir, re.sub(r"[^a-z]+", "_", name).strip("_") + ".ply")
@@ -187,6 +188,8 @@ def main():
     print("true surface: %d samples (0.5 mm), %d visible from the rig's cameras" % (total, len(vis)))
 
     rows = []
+    xtion_pc = o3d.io.read_point_cloud(clouds["xtion"][0])
+    overlap = []
     for name, (path, last, secs) in clouds.items():
         pc = o3d.io.read_point_cloud(path)
         p = np.asarray(pc.points, dtype=np.float32)
@@ -195,11 +198,22 @@ def main():
         coverage = float(np.mean(cov <= 0.002))
         cols = np.asarray(pc.colors) if pc.has_colors() else None
         rows.append((name, len(p), 1e3 * np.median(d), 1e3 * np.percentile(d, 95), 100 * coverage, secs))
+        if name.startswith("fused"):
+            # the same error on the part of the surface the xtion alone also reconstructs
+            near = np.asarray(pc.compute_point_cloud_distance(xtion_pc)) <= 0.002
+            overlap.append((name, int(near.sum()), 1e3 * np.median(d[near]), 1e3 * np.percentile(d[near], 95),
+                            1e3 * np.median(d[~near]) if (~near).any() else 0.0, int((~near).sum())))
     print()
     print("| cloud | points | median error (mm) | 95th pct (mm) | coverage (%, 2 mm) | run (s) |")
     print("|---|---|---|---|---|---|")
     for r in rows:
         print("| %s | %d | %.3f | %.3f | %.1f | %.1f |" % r)
+    print()
+    print("| fused cloud | points within 2 mm of the xtion-alone cloud | their median / 95th pct (mm) | "
+          "other points | their median (mm) |")
+    print("|---|---|---|---|---|")
+    for o in overlap:
+        print("| %s | %d | %.3f / %.3f | %d | %.3f |" % (o[0], o[1], o[2], o[3], o[5], o[4]))
     res = {r[0]: r for r in rows}
     fused = res["fused (true extrinsics)"]
     print()

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <algorithm>
 #include <string>
 
 #include "args.hpp"
@@ -19,8 +20,9 @@ namespace {
 
 const char* kUsage =
     "usage: edgefuse calibrate RIGSET --from A --to B [--frames N] [--guess tx,ty,tz,rx,ry,rz] [--out FILE]\n"
-    "                          [--voxel M] [--trunc M] [--volume N]\n"
-    "  Fills the space with sensor A (its first N frames at their poses, default 10), registers B's\n"
+    "                          [--poses tracked|truth] [--voxel M] [--trunc M] [--volume N]\n"
+    "  Fills the space with sensor A (its first N frames, default 10; tracked by ICP from its first\n"
+    "  ground-truth pose, or with --poses truth at every ground-truth pose), registers B's\n"
     "  frames of the same instants to it and prints T_A_B (pose of B in A's frame) with its\n"
     "  uncertainty. --guess: the mounting to start from (metres, degrees as a rotation vector;\n"
     "  default 0). --out appends 'A B tx ty tz qx qy qz qw' (extrinsics.txt format) to FILE.\n"
@@ -36,7 +38,7 @@ int fail(const std::string& msg, int code = 1) {
 int cmd_calibrate(int argc, char** argv) {
   Args args;
   std::string err;
-  if (!args.parse(argc, argv, {"from", "to", "frames", "guess", "out", "voxel", "trunc", "volume"}, {}, err) ||
+  if (!args.parse(argc, argv, {"from", "to", "frames", "guess", "out", "voxel", "trunc", "volume", "poses"}, {}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse calibrate: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
     return 2;
@@ -62,6 +64,8 @@ int cmd_calibrate(int argc, char** argv) {
     return fail(err, 2);
   if (!args.has("trunc") && args.has("voxel")) settings.trunc_m = 4.0f * settings.voxel_m;
   if (settings.dim % kBrickSide != 0) return fail("--volume must be a multiple of 8", 2);
+  const std::string poses = args.get("poses", "tracked");
+  if (poses != "tracked" && poses != "truth") return fail("--poses must be tracked or truth, got '" + poses + "'", 2);
   if (args.get("from") == args.get("to")) return fail("--from and --to name the same sensor", 2);
 
   const std::string folder = args.positional()[0];
@@ -99,8 +103,15 @@ int cmd_calibrate(int argc, char** argv) {
               pose_line(guess).c_str());
   PairCalibrationParams params;
   PairCalibrationRun run;
-  if (!run_pair_calibration(a, b, core.volume, pyramid, ws, filter_scratch, frames, guess, params, run, err, true))
+  FramePyramid<real_t> pyramid_a;
+  if (core.buffers.pyramid<real_t>(0, a.seq.intr, pyramid_a) != Status::kOk) return fail("A's pyramid does not fit");
+  TrackingBuffers track{&pyramid_a, core.buffers.icp_workspace<real_t>(0)};
+  if (!run_pair_calibration(a, b, core.volume, pyramid, ws, filter_scratch, frames, guess, params, run, err, true,
+                            poses == "tracked" ? &track : nullptr))
     return fail(err);
+  if (poses == "tracked")
+    std::printf("A tracked: %d of %d frames ok, largest distance from its ground truth %.2f mm\n", run.a_tracked_ok,
+                std::min(frames, int(a.seq.frames.size())), run.a_pose_error_mm);
   if (run.accepted == 0)
     return fail("refused: " + (run.first_reason.empty() ? std::string("no frame of B at A's instants") : run.first_reason),
                 3);

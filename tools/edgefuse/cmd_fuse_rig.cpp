@@ -32,7 +32,8 @@ const char* kUsage =
     "  Fuses the listed sensors of a rig set into one space. Pinhole sensors are placed by\n"
     "  --extrinsics: 'true' (default) = each sensor's own groundtruth.txt; 'calibrated' = the\n"
     "  reference camera's poses (the first listed with colour, else the first pinhole) times the\n"
-    "  mounting found by calibration (as `edgefuse calibrate`, from --guess); FILE = the same with\n"
+    "  mounting found by calibration (as `edgefuse calibrate --frames 20`, reference tracked, from\n"
+    "  --guess); FILE = the same with\n"
     "  the mounting read from an extrinsics.txt file. Line scanners use their own poses (the robot's).\n"
     "  Weights follow each sensor's noise model (--no-trust: equal weights); colour from the\n"
     "  reference camera is painted onto all geometry it saw (--no-paint: only where its own depth was).\n";
@@ -201,9 +202,12 @@ int cmd_fuse_rig(int argc, char** argv) {
           return fail("pyramid does not fit");
         PairCalibrationRun run;
         std::printf("calibrating T_%s_%s ...\n", r.seq.sensor_name.c_str(), cams[i].seq.sensor_name.c_str());
+        FramePyramid<real_t> pyramid_ref;
+        if (core.buffers.pyramid<real_t>(r.slot, r.seq.intr, pyramid_ref) != Status::kOk) return fail("pyramid does not fit");
+        TrackingBuffers track{&pyramid_ref, core.buffers.icp_workspace<real_t>(r.slot)};
         if (!run_pair_calibration(cams[std::size_t(ref)], cams[i], core.volume, pyramid,
                                   core.buffers.icp_workspace<real_t>(cams[i].slot), filter_scratch,
-                                  std::min(frames_max, 10), guess, PairCalibrationParams(), run, err, false))
+                                  std::min(frames_max, 20), guess, PairCalibrationParams(), run, err, false, &track))
           return fail(err);
         core.volume.clear();
         if (run.accepted == 0) return fail("calibration of " + cams[i].seq.sensor_name + " refused: " + run.first_reason, 3);

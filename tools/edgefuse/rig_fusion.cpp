@@ -1,10 +1,13 @@
 #include "rig_fusion.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
 
+#include "edgefuse/tracking/tracker.hpp"
 #include "edgefuse/tsdf/integrate.hpp"
+#include "edgefuse/tsdf/raycast.hpp"
 
 namespace edgefuse::cli {
 
@@ -131,21 +134,55 @@ bool parse_guess(const std::string& text, Pose& T, std::string& err) {
 bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, FramePyramid<real_t>& pyramid,
                           const IcpWorkspace<real_t>& ws, ImageView<uint16_t> filter_scratch, int frames,
                           const Pose& guess, const PairCalibrationParams& params, PairCalibrationRun& run,
-                          std::string& err, bool verbose) {
+                          std::string& err, bool verbose, const TrackingBuffers* track_a) {
   run = PairCalibrationRun{};
   // Masks and jump edges, but no bilateral smoothing: it moves depth edges, and edges are what pin
   // the lateral directions (measured on bin_rig_a: 1.1 mm bias with it, 0.6 mm without).
   a.filters.bilateral_enabled = false;
   b.filters.bilateral_enabled = false;
   const std::size_t n = std::min<std::size_t>(std::size_t(frames), a.seq.frames.size());
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!a.seq.frames[i].has_pose) {
-      err = a.seq.root + ": frame " + std::to_string(i) + " has no pose";
+  std::vector<Pose> pose_a(n);
+  Tracker tracker;
+  if (track_a != nullptr) {
+    if (!a.seq.frames[0].has_pose) {
+      err = a.seq.root + ": the first frame needs a pose to start tracking from";
       return false;
     }
+    // Every tracked frame is pushed: the model B is registered to should be as complete and as
+    // smooth as A's data allows (the 1 cm / 1 degree push policy keeps only ~6 of bin_rig_a's 20).
+    TrackerParams tp;
+    tp.push.every_frame = true;
+    if (tracker.start(a.seq.frames[0].T_world_cam, tp) != Status::kOk) {
+      err = "bad tracker parameters";
+      return false;
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
     DepthFrame f;
     if (!a.stage(i, true, false, 0.0f, filter_scratch, f, err)) return false;
-    if (integrate<real_t>(volume, a.seq.intr, a.ray_norms, f, a.seq.frames[i].T_world_cam, a.scratch) != Status::kOk) {
+    bool push = true;
+    if (track_a != nullptr) {
+      TrackResult r;
+      Status s = i > 0 ? raycast<real_t>(volume, a.seq.intr, tracker.raycast_pose(), a.maps, a.scratch) : Status::kOk;
+      if (s == Status::kOk) s = build_pyramid<real_t>(f.depth, PyramidParams(), *track_a->pyramid);
+      if (s == Status::kOk) s = tracker.track<real_t>(*track_a->pyramid, a.maps, a.seq.intr, track_a->ws, r);
+      if (s != Status::kOk) {
+        err = a.seq.frames[i].depth_path + ": tracking failed";
+        return false;
+      }
+      pose_a[i] = r.T_world_cam;
+      push = r.push;
+      run.a_tracked_ok += r.state == TrackState::kOk;
+      if (a.seq.frames[i].has_pose)
+        run.a_pose_error_mm = std::max(run.a_pose_error_mm, 1e3f * (r.T_world_cam.t - a.seq.frames[i].T_world_cam.t).norm());
+    } else {
+      if (!a.seq.frames[i].has_pose) {
+        err = a.seq.root + ": frame " + std::to_string(i) + " has no pose";
+        return false;
+      }
+      pose_a[i] = a.seq.frames[i].T_world_cam;
+    }
+    if (push && integrate<real_t>(volume, a.seq.intr, a.ray_norms, f, pose_a[i], a.scratch) != Status::kOk) {
       err = a.seq.frames[i].depth_path + ": integration failed";
       return false;
     }
@@ -163,7 +200,7 @@ bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, Fr
       return false;
     }
     PairCalibrationResult r;
-    if (calibrate_pair<real_t>(volume, a.seq.frames[i].T_world_cam, guess, b.seq.intr, pyramid, b.maps, b.scratch, ws,
+    if (calibrate_pair<real_t>(volume, pose_a[i], guess, b.seq.intr, pyramid, b.maps, b.scratch, ws,
                                params, r) != Status::kOk) {
       err = "calibration failed on frame " + std::to_string(j);
       return false;

@@ -56,18 +56,27 @@ struct PairCalibrationRun {
   Vec6f spread = Vec6f::Zero();               //!< std. deviation over them (rad, m; B frame)
   Vec6f sigma = Vec6f::Zero();                //!< mean of the frames' covariance sigmas
   std::string first_reason;                   //!< of the first refused frame
+  int a_tracked_ok = 0;                       //!< A's frames tracked ok (when tracking)
+  float a_pose_error_mm = 0;                  //!< largest distance of A's tracked pose from its ground truth
 };
 
-//! Fills the (empty) volume with A's first `frames` frames at A's poses, then registers B's
+//! A's tracking buffers: when given, A is tracked by ICP against its own model (paper Fig. 3) from
+//! its first ground-truth pose instead of being placed at every ground-truth pose.
+struct TrackingBuffers {
+  FramePyramid<real_t>* pyramid = nullptr;
+  IcpWorkspace<real_t> ws;
+};
+
+//! Fills the (empty) volume with A's first `frames` frames at A's poses (or tracked: track_a), then registers B's
 //! frames taken at the same instants (calibrate_pair, starting from `guess` each time).
 //! \param a sensor A (slot bound, volume made)  \param b sensor B (slot bound)
 //! \param volume the space  \param pyramid B's frame pyramid  \param ws B's ICP row sums
 //! \param filter_scratch a spare depth image  \param frames frames to use  \param guess T_A_B start
 //! \param params calibration thresholds  \param run results  \param err error text
-//! \param verbose print one line per frame
+//! \param verbose print one line per frame  \param track_a A's tracking buffers (null: A's ground-truth poses)
 bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, FramePyramid<real_t>& pyramid,
                           const IcpWorkspace<real_t>& ws, ImageView<uint16_t> filter_scratch, int frames,
                           const Pose& guess, const PairCalibrationParams& params, PairCalibrationRun& run,
-                          std::string& err, bool verbose);
+                          std::string& err, bool verbose, const TrackingBuffers* track_a = nullptr);
 
 }  // namespace edgefuse::cli
