@@ -16,16 +16,31 @@ using namespace edgefuse_test;
 namespace {
 constexpr int kBW = 160, kBH = 120;
 RigBuffers<float> g_rig;
+RigBuffers<Fixed> g_rig_q;
+template <class Real>
 struct BBuffers {
   static constexpr std::size_t kPyr = pyramid_pixels(kBW, kBH);
-  Point3<float> pv[kPyr], pn[kPyr];
+  Point3<Real> pv[kPyr], pn[kPyr];
   alignas(8) unsigned char rows[kBH * kIcpRowBytes];
   float depth_m[kBW * kBH];
   Vec3f vertex[kBW * kBH], normal[kBW * kBH];
   uint16_t frame[kBW * kBH];
-  SensorBuffers<float> sensor;
+  SensorBuffers<Real> sensor;
 };
-BBuffers g_b;
+BBuffers<float> g_b;
+BBuffers<Fixed> g_b_q;
+template <class Real>
+RigBuffers<Real>& rig_buffers();
+template <>
+RigBuffers<float>& rig_buffers<float>() { return g_rig; }
+template <>
+RigBuffers<Fixed>& rig_buffers<Fixed>() { return g_rig_q; }
+template <class Real>
+BBuffers<Real>& b_buffers();
+template <>
+BBuffers<float>& b_buffers<float>() { return g_b; }
+template <>
+BBuffers<Fixed>& b_buffers<Fixed>() { return g_b_q; }
 
 PinholeIntrinsics camera_b() {  // a ToF-like camera: 160 x 120, wide, non-square pixels
   PinholeIntrinsics c;
@@ -53,15 +68,18 @@ struct Outcome {
   Status status;
 };
 
+template <class Real = float>
 Outcome run_pair(const Scene& scene, const Pose& guess) {
-  Rig<float> rig(g_rig, kRigCentre, 0.01f);
+  RigBuffers<Real>& g_rig = rig_buffers<Real>();
+  BBuffers<Real>& g_b = b_buffers<Real>();
+  Rig<Real> rig(g_rig, kRigCentre, 0.01f);
   const std::vector<Pose> poses = known_motion(6);
   std::vector<uint16_t> depth;
   for (std::size_t i = 0; i < poses.size(); ++i) {
     render(scene, rig.cam, poses[i], depth);
     add_depth_noise(depth, rig.cam.depth_scale, 0.0015f, uint32_t(i + 1));
     for (std::size_t k = 0; k < depth.size(); ++k) g_rig.frame[k] = depth[k];
-    integrate<float>(rig.volume, rig.cam, rig.norms, DepthFrame{ImageView<const uint16_t>(g_rig.frame, kRigW, kRigH), {}},
+    integrate<Real>(rig.volume, rig.cam, rig.norms, DepthFrame{ImageView<const uint16_t>(g_rig.frame, kRigW, kRigH), {}},
                      poses[i], rig.scratch);
   }
   const PinholeIntrinsics cb = camera_b();
@@ -69,17 +87,17 @@ Outcome run_pair(const Scene& scene, const Pose& guess) {
   render(scene, cb, T_world_a * mounting(), depth);
   add_depth_noise(depth, cb.depth_scale, 0.004f, 99u);
   for (std::size_t k = 0; k < depth.size(); ++k) g_b.frame[k] = depth[k];
-  FramePyramid<float> pyr;
-  bind_pyramid<float>(cb, g_b.pv, g_b.pn, BBuffers::kPyr, pyr);
-  build_pyramid<float>(ImageView<const uint16_t>(g_b.frame, kBW, kBH), PyramidParams(), pyr);
+  FramePyramid<Real> pyr;
+  bind_pyramid<Real>(cb, g_b.pv, g_b.pn, BBuffers<Real>::kPyr, pyr);
+  build_pyramid<Real>(ImageView<const uint16_t>(g_b.frame, kBW, kBH), PyramidParams(), pyr);
   RaycastMaps maps;
   maps.depth_m = ImageView<float>(g_b.depth_m, kBW, kBH);
   maps.vertex = ImageView<Vec3f>(g_b.vertex, kBW, kBH);
   maps.normal = ImageView<Vec3f>(g_b.normal, kBW, kBH);
   FrameScratch scratch = g_b.sensor.scratch();
-  const IcpWorkspace<float> ws = IcpWorkspace<float>::bind(g_b.rows, sizeof(g_b.rows));
+  const IcpWorkspace<Real> ws = IcpWorkspace<Real>::bind(g_b.rows, sizeof(g_b.rows));
   Outcome o;
-  o.status = calibrate_pair<float>(rig.volume, T_world_a, guess, cb, pyr, maps, scratch, ws, PairCalibrationParams(), o.r);
+  o.status = calibrate_pair<Real>(rig.volume, T_world_a, guess, cb, pyr, maps, scratch, ws, PairCalibrationParams(), o.r);
   return o;
 }
 }  // namespace
@@ -115,4 +133,19 @@ TEST(PairCalibration, RefusesSinglePlane) {
   std::printf("\n  single plane: %s\n", o.r.reason);
   CHECK(!o.r.accepted);
   CHECK(std::strstr(o.r.reason, "single plane") != nullptr);
+}
+
+// The Q16.16 kernels (integration, raycast, pyramid, ICP) recover the same mounting.
+TEST(PairCalibration, FixedPointRecoversKnownMounting) {
+  Pose guess = mounting();
+  guess.t += Vec3f(-0.015f, 0.01f, 0.008f);
+  const Outcome o = run_pair<Fixed>(box_sphere_corner(), guess);
+  CHECK(o.status == Status::kOk);
+  float dt, deg;
+  pose_error(o.r.T_a_b, mounting(), dt, deg);
+  std::printf("\n  calibrated (Q16.16): %s, %.2f mm %.3f deg off, rms %.2f mm %s\n", o.r.accepted ? "accepted" : "refused",
+              1e3f * dt, deg, 1e3f * o.r.rms_m, o.r.reason);
+  CHECK(o.r.accepted);
+  CHECK(dt < 0.002f);
+  CHECK(deg < 0.2f);
 }

@@ -78,8 +78,15 @@ TEST(FusionColour, ColourTransferOntoTofOnlyGeometry) {
                          T_rgbd, s_rgbd) == Status::kOk);
   std::vector<uint16_t> tdepth;
   render(scene, tof, T_tof, tdepth);
-  CHECK(integrate<float>(vol, tof, g_tof.ray_norms(tof), DepthFrame{ImageView<const uint16_t>(tdepth.data(), 160, 120), {}},
-                         T_tof, s_tof) == Status::kOk);
+  // The ToF push with its per-pixel trust map (noise model) allocates nothing.
+  const ImageView<const float> tof_norms = g_tof.ray_norms(tof);
+  DepthFrame tf{ImageView<const uint16_t>(tdepth.data(), 160, 120), {}};
+  tf.trust = ImageView<const uint8_t>(g_trust, 160, 120);
+  alloc_count_start();
+  CHECK(build_trust_map(NoiseModel::time_of_flight(), 0.005f, tf.depth, tof.depth_scale, {},
+                        ImageView<uint8_t>(g_trust, 160, 120)) == Status::kOk);
+  CHECK(integrate<float>(vol, tof, tof_norms, tf, T_tof, s_tof) == Status::kOk);
+  LONGS_EQUAL(0, alloc_count());
 
   auto box_colour_share = [&](int& box_points, int& box_coloured, int& far_wall, int& far_wall_coloured) {
     std::size_t n = 0;
