@@ -5,6 +5,7 @@
 #include <cstring>
 #include <vector>
 
+#include "edgefuse/fusion/align_spaces.hpp"
 #include "edgefuse/fusion/calibrate_pair.hpp"
 #include "edgefuse/tsdf/integrate.hpp"
 #include "test_tracking_rig.hpp"
@@ -146,6 +147,57 @@ TEST(PairCalibration, FixedPointRecoversKnownMounting) {
   std::printf("\n  calibrated (Q16.16): %s, %.2f mm %.3f deg off, rms %.2f mm %s\n", o.r.accepted ? "accepted" : "refused",
               1e3f * dt, deg, 1e3f * o.r.rms_m, o.r.reason);
   CHECK(o.r.accepted);
+  CHECK(dt < 0.002f);
+  CHECK(deg < 0.2f);
+}
+
+// Second mode: each camera maps alone into its own space (its own frame); aligning the two
+// spaces' surfaces recovers the transform between the maps.
+namespace {
+VolumeStorage<kRigDim> g_other;
+float g_o_depth[kRigW * kRigH];
+Vec3f g_o_vertex[kRigW * kRigH], g_o_normal[kRigW * kRigH];
+uint16_t g_o_raw[kRigW * kRigH];
+SensorBuffers<float> g_o_sensor;
+}  // namespace
+
+TEST(PairCalibration, AlignsTwoSpaces) {
+  Rig<float> rig(g_rig, kRigCentre, 0.01f);
+  const Scene scene = box_sphere_corner();
+  const std::vector<Pose> poses = known_motion(6);
+  // The other map's frame: the model frame moved by a known transform (its sensor started elsewhere).
+  Pose T_model_other;
+  T_model_other.R = Eigen::AngleAxisf(0.05f, Vec3f(0.2f, 1.0f, -0.3f).normalized()).toRotationMatrix();
+  T_model_other.t = Vec3f(0.02f, -0.015f, 0.01f);
+  TsdfVolume other;
+  other.init(g_other.view(false), kRigDim, T_model_other.inverse() * kRigCentre - Vec3f::Constant(0.5f * kRigDim * 0.01f),
+             TsdfParams::defaults_for(0.01f, 0.04f));
+  FrameScratch os = g_o_sensor.scratch();
+  const ImageView<const float> norms = g_o_sensor.ray_norms(rig.cam);
+  std::vector<uint16_t> depth;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    render(scene, rig.cam, poses[i], depth);
+    add_depth_noise(depth, rig.cam.depth_scale, 0.0015f, uint32_t(i + 7));
+    for (std::size_t k = 0; k < depth.size(); ++k) g_rig.frame[k] = depth[k];
+    const DepthFrame f{ImageView<const uint16_t>(g_rig.frame, kRigW, kRigH), {}};
+    if (i % 2 == 0) integrate<float>(rig.volume, rig.cam, rig.norms, f, poses[i], rig.scratch);
+    else integrate<float>(other, rig.cam, norms, f, T_model_other.inverse() * poses[i], os);
+  }
+  RaycastMaps om;
+  om.depth_m = ImageView<float>(g_o_depth, kRigW, kRigH);
+  om.vertex = ImageView<Vec3f>(g_o_vertex, kRigW, kRigH);
+  om.normal = ImageView<Vec3f>(g_o_normal, kRigW, kRigH);
+  Pose guess = T_model_other;
+  guess.t += Vec3f(0.012f, 0.008f, -0.01f);
+  PairCalibrationResult r;
+  CHECK(align_spaces<float>(rig.volume, other, rig.cam, poses[0], guess, rig.pyramid, rig.maps, om, rig.scratch, os,
+                            ImageView<uint16_t>(g_o_raw, kRigW, kRigH), rig.ws, PairCalibrationParams(), 2, r) ==
+        Status::kOk);
+  float dt, deg;
+  pose_error(r.T_a_b, T_model_other, dt, deg);
+  std::printf("\n  spaces aligned: %s, %.2f mm %.3f deg off, rms %.2f mm %s\n", r.accepted ? "accepted" : "refused",
+              1e3f * dt, deg, 1e3f * r.rms_m, r.reason);
+  CHECK(r.accepted);
   CHECK(dt < 0.002f);
   CHECK(deg < 0.2f);
 }
