@@ -3,7 +3,8 @@
 
 1. Calibration: `edgefuse calibrate RIGSET --from xtion --to tof --frames N` (start: identity, i.e.
    no hand-measured guess); its T_xtion_tof is compared with extrinsics.txt (translation in mm,
-   rotation angle in degrees).
+   rotation angle in degrees); the same with `--mode maps` (each sensor maps alone, the maps are
+   aligned).
 2. Clouds: `edgefuse fuse RIGSET --sensors S --origin O --out S.ply` for S = xtion, tof, laser,
    xtion+tof+laser (true extrinsics) and xtion+tof+laser with --extrinsics calibrated; all in the
    same volume (same --origin, the board's voxel size).
@@ -164,6 +165,9 @@ def main():
     D = T_true[:3, :3].T @ T_cal[:3, :3]
     ddeg = np.degrees(np.arccos(np.clip((np.trace(D) - 1) / 2, -1, 1)))
     print("calibration: T_xtion_tof off by %.3f mm, %.4f deg (%.1f s)" % (dt_mm, ddeg, calib_s))
+    # second mode: each sensor maps alone, the two maps are aligned
+    out = run([ef, "calibrate", a.rig, "--from", "xtion", "--to", "tof", "--frames", str(a.frames), "--mode", "maps"])
+    print("calibration --mode maps: " + out.strip().splitlines()[-1])
 
     # 2. clouds
     runs = [("xtion", ["--sensors", "xtion"]), ("tof", ["--sensors", "tof"]), ("laser", ["--sensors", "laser"]),

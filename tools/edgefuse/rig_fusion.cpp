@@ -138,6 +138,16 @@ bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, Fr
   run = PairCalibrationRun{};
   // Masks and jump edges, but no bilateral smoothing: it moves depth edges, and edges are what pin
   // the lateral directions (measured on bin_rig_a: 1.1 mm bias with it, 0.6 mm without).
+  // (The slots' own settings are restored on return: fusion keeps the bilateral filter.)
+  struct Restore {
+    PinholeSlot& a;
+    PinholeSlot& b;
+    bool ba, bb;
+    ~Restore() {
+      a.filters.bilateral_enabled = ba;
+      b.filters.bilateral_enabled = bb;
+    }
+  } restore{a, b, a.filters.bilateral_enabled, b.filters.bilateral_enabled};
   a.filters.bilateral_enabled = false;
   b.filters.bilateral_enabled = false;
   const std::size_t n = std::min<std::size_t>(std::size_t(frames), a.seq.frames.size());
