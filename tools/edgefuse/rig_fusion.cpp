@@ -45,7 +45,7 @@ bool PinholeSlot::bind(CoreBuffers& b, const BoardCapacities& board, int slot_in
     return false;
   }
   noise = tof ? NoiseModel::time_of_flight() : NoiseModel::structured_light();
-  trust.assign(std::size_t(w) * h, 255);
+  trust = ImageView<uint8_t>(b.trust_maps + off, w, h);
   return true;
 }
 
@@ -75,12 +75,11 @@ bool PinholeSlot::stage(std::size_t i, bool filter, bool with_colour, float sigm
     frame.colour = colour;
   }
   if (sigma_ref_m > 0.0f) {
-    const ImageView<uint8_t> t(trust.data(), intr.width, intr.height);
-    if (build_trust_map(noise, sigma_ref_m, depth, intr.depth_scale, amp, t) != Status::kOk) {
+    if (build_trust_map(noise, sigma_ref_m, depth, intr.depth_scale, amp, trust) != Status::kOk) {
       err = f.depth_path + ": trust map failed";
       return false;
     }
-    frame.trust = t;
+    frame.trust = trust;
   }
   return true;
 }

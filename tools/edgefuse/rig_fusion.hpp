@@ -28,7 +28,7 @@ struct PinholeSlot {
   ImageView<Rgb8> colour;            //!< staged colour
   DepthFilterChain<real_t> filters;
   NoiseModel noise;
-  std::vector<uint8_t> trust;        //!< host-side trust map (the board has no region for it yet)
+  ImageView<uint8_t> trust;          //!< the slot's trust map (memory map region kTrustMaps)
   std::vector<uint16_t> load_depth, load_amplitude;  //!< file staging (host I/O)
   std::vector<Rgb8> load_colour;
 
