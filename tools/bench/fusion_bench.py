@@ -174,7 +174,7 @@ def main():
             ("fused (true extrinsics)", ["--sensors", "xtion,tof,laser"]),
             ("fused (calibrated)", ["--sensors", "xtion,tof,laser", "--extrinsics", extr]),
             ("fused, equal weights", ["--sensors", "xtion,tof,laser", "--no-trust"]),
-            ("fused, --min-weight 12", ["--sensors", "xtion,tof,laser", "--min-weight", "12"])]
+            ("fused, --min-weight 16", ["--sensors", "xtion,tof,laser", "--min-weight", "16"])]
     clouds = {}
     for name, opts in runs:
         path = os.path.join(a.workdir, re.sub(r"[^a-z]+", "_", name).strip("_") + ".ply")

@@ -297,17 +297,18 @@ int cmd_fuse_rig(int argc, char** argv) {
   io::PointCloud cloud;
   const Status xs = core.extract_cloud(cloud);
   if (min_weight > 0) {
-    // Confidence filter: keep a point only where the voxels around it hold at least min_weight.
+    // Confidence filter: keep a point only where some of the 8 voxels around it holds at least
+    // min_weight (weight units: 1/8 sample x trust), i.e. the surface there is supported by that much data.
     const TsdfVolume& vol = core.volume;
     std::size_t kept = 0;
     for (std::size_t i = 0; i < cloud.points.size(); ++i) {
       const Vec3f g = (cloud.points[i] - vol.origin_m()) / vol.voxel_m() - Vec3f::Constant(0.5f);
-      int lo = 255;
+      int lo = 0;  // the best-supported of the 8 voxels
       for (int c = 0; c < 8; ++c) {
         const int x = int(std::floor(g.x())) + (c & 1), y = int(std::floor(g.y())) + ((c >> 1) & 1),
                   z = int(std::floor(g.z())) + ((c >> 2) & 1);
         if (x < 0 || y < 0 || z < 0 || x >= vol.dim() || y >= vol.dim() || z >= vol.dim()) continue;
-        lo = std::min(lo, int(vol.weight()[vol.index(x, y, z)]));
+        lo = std::max(lo, int(vol.weight()[vol.index(x, y, z)]));
       }
       if (lo < min_weight) continue;
       cloud.points[kept] = cloud.points[i];
