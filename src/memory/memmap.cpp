@@ -37,6 +37,7 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   out.pyramid_vertex = at(Region::kPyramidVertex);
   out.pyramid_normal = at(Region::kPyramidNormal);
   out.icp_rows = at(Region::kIcpRowSums);
+  out.trust_maps = static_cast<uint8_t*>(at(Region::kTrustMaps));  // multi-sensor fusion (issue 4)
   out.pyramid_points_per_sensor = pyramid_pixels(c.image_width_max, c.image_height_max);
   out.icp_row_bytes_per_sensor = std::size_t(c.image_height_max) * kIcpRowBytes;
   out.pixels_per_sensor = std::size_t(c.image_width_max) * std::size_t(c.image_height_max);

@@ -3,31 +3,13 @@
 #include <cmath>
 
 #include "kernel_math.hpp"
+#include "voxel_update.hpp"
 
 namespace edgefuse {
 namespace {
 
-// 2^32 / n rounded up, for n = 1 .. 511: the running average divides by (old + new weight) <= 263
-// without a hardware division per voxel.
-struct Reciprocals {
-  uint32_t v[512] = {};
-  constexpr Reciprocals() {
-    for (uint32_t n = 1; n < 512; ++n) v[n] = uint32_t((uint64_t(1) << 32) / n + 1);
-  }
-};
-constexpr Reciprocals kReciprocals;
-
-// Weighted running average of two integer samples, rounded to nearest (ties away from zero).
-// |num| < 2^24, so num * (2^32/den + 1) >> 32 is the exact quotient up to 2^-8.
-inline int32_t blend(int32_t old_value, int32_t old_weight, int32_t sample, int32_t sample_weight) {
-  const int32_t num = old_value * old_weight + sample * sample_weight;
-  const uint32_t den = uint32_t(old_weight + sample_weight);
-  const uint64_t mag = uint64_t(num >= 0 ? num : -num) + den / 2;
-  const int32_t q = int32_t((mag * kReciprocals.v[den]) >> 32);
-  return num >= 0 ? q : -q;
-}
-
-inline uint8_t cap_weight(int32_t w, uint8_t max_weight) { return uint8_t(w > max_weight ? max_weight : w); }
+using voxel_update::blend;
+using voxel_update::cap_weight;
 
 // Measured z-depth at the projection (pu, pv) of a voxel; (iu, iv) is the nearest pixel.
 // Bilinear over the 4 surrounding pixels when all are valid and within a depth jump of each other;
@@ -193,6 +175,8 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
     return Status::kInvalidArgument;
   if (!frame.colour.empty() && (frame.colour.width != intr.width || frame.colour.height != intr.height))
     return Status::kInvalidArgument;
+  if (!frame.trust.empty() && (frame.trust.width != intr.width || frame.trust.height != intr.height))
+    return Status::kInvalidArgument;
   if (!T_world_cam.R.allFinite() || !T_world_cam.t.allFinite()) return Status::kInvalidArgument;
   if (!scratch.fits(intr.width, intr.height)) return Status::kCapacityExceeded;
 
@@ -280,6 +264,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
   const int32_t full_weight = int32_t((uint32_t(WeightTable::kOne) * job.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
   // Voxels closer than a voxel to the sensor plane are not projected (division by ~0).
   const Real near_z = job.voxel;
+  const bool has_trust = !job.frame.trust.empty();
 
   // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
   // span: from the brick's first to its last voxel centre along each axis.
@@ -307,6 +292,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
     if (cls == BrickClass::kSkip) continue;
     const std::size_t base = std::size_t(brick) * kBrickVoxels;
     bool surface = false, observed = false;
+    if (job.colour_only && (cls == BrickClass::kFreeSpace || (flags[brick] & kBrickSurface) == 0)) continue;
     if (cls == BrickClass::kFreeSpace) {
       free_space_update(tsdf, weight, base, 0, kBrickSide, max_weight, full_weight, surface);
       flags[brick] |= surface ? (kBrickObserved | kBrickSurface) : kBrickObserved;
@@ -323,6 +309,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
       const BrickClass sub = classify_box(job, cb, half_span, near_z);
       if (sub == BrickClass::kSkip) continue;
       const int first = (off[2] << 6) | (off[1] << 3) | off[0];
+      if (sub == BrickClass::kFreeSpace && job.colour_only) continue;
       if (sub == BrickClass::kFreeSpace) {
         free_space_update(tsdf, weight, base, first, kHalf, max_weight, full_weight, surface);
         observed = true;
@@ -350,7 +337,9 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
             if (z_near + job.jump - p[2] < zero - job.rho) continue;
             const std::size_t idx = row + std::size_t(lx);
             const DepthTile& tile = job.tiles[std::size_t(iv >> 3) * job.tiles_x + std::size_t(iu >> 3)];
+            if (job.colour_only && (colour == nullptr || weight[idx] == 0)) continue;
             if (job.depth.metres(tile.near_raw) - p[2] >= job.trunc && z_near <= job.max_z && z_near >= job.min_z) {
+              if (job.colour_only) continue;
               const int32_t old_w = weight[idx];
               if (old_w == max_weight && tsdf[idx] == kTsdfMax) continue;
               const int32_t value = old_w == 0 ? kTsdfMax : blend(tsdf[idx], old_w, kTsdfMax, full_weight);
@@ -374,15 +363,21 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               w = int32_t((shape[k] * job.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
               if (w == 0) continue;
             }
+            if (has_trust) {
+              w = voxel_update::scale_by_trust(w, job.frame.trust.at(iu, iv), weight[idx]);
+              if (w == 0) continue;
+            }
             int32_t q = d >= job.trunc ? kTsdfMax : round_int(d * job.inv_trunc * q_scale);
             q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
 
-            const int32_t old_w = weight[idx];
-            const int32_t value = old_w == 0 ? q : blend(tsdf[idx], old_w, q, w);
-            tsdf[idx] = int16_t(value);
-            weight[idx] = cap_weight(old_w + w, max_weight);
-            observed = true;
-            surface = surface || (value < kTsdfMax && value > -kTsdfMax);
+            if (!job.colour_only) {
+              const int32_t old_w = weight[idx];
+              const int32_t value = old_w == 0 ? q : blend(tsdf[idx], old_w, q, w);
+              tsdf[idx] = int16_t(value);
+              weight[idx] = cap_weight(old_w + w, max_weight);
+              observed = true;
+              surface = surface || (value < kTsdfMax && value > -kTsdfMax);
+            }
 
             if (colour != nullptr && d < job.colour_band && d > zero - job.colour_band) {
               const Rgb8 c = job.frame.colour.at(iu, iv);

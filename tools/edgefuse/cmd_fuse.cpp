@@ -27,11 +27,15 @@ const char* kUsage =
     "                     [--origin X,Y,Z] [--out FILE.ply|.pcd] [--mesh FILE.ply] [--threads N]\n"
     "  Integrates the frames of DATASET (any layout of FORMATS.md) at their ground-truth poses.\n"
     "  Defaults: voxel, truncation and threads from the board; volume = the board's capacity,\n"
-    "  centred on what the first frame sees; --out fused.ply.\n";
+    "  centred on what the first frame sees; --out fused.ply.\n"
+    "  With --sensors A,B,... (a rig set): several sensors into one space; see `edgefuse fuse RIGSET --sensors`.\n";
 
 }  // namespace
 
 int cmd_fuse(int argc, char** argv) {
+  // Several sensors of a rig set into one space (issue 4): its own option set.
+  for (int i = 0; i < argc; ++i)
+    if (std::string(argv[i]) == "--sensors") return cmd_fuse_rig(argc, argv);
   Args args;
   std::string err;
   if (!args.parse(argc, argv, {"sensor", "frames", "voxel", "trunc", "volume", "origin", "out", "mesh", "threads"},

@@ -8,5 +8,8 @@ int cmd_fuse(int argc, char** argv);
 int cmd_memmap(int argc, char** argv);
 int cmd_track(int argc, char** argv);
 int cmd_eval(int argc, char** argv);
+// multi-sensor fusion (issue 4)
+int cmd_calibrate(int argc, char** argv);
+int cmd_fuse_rig(int argc, char** argv);  //!< `fuse RIGSET --sensors ...` (called by cmd_fuse)
 
 }  // namespace edgefuse::cli

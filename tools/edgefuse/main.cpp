@@ -19,12 +19,14 @@ const Command kCommands[] = {
     {"memmap", edgefuse::cli::cmd_memmap, "print a board's static memory map"},
     {"track", edgefuse::cli::cmd_track, "track the sensor by ICP against the fused model, fuse, write the trajectory"},
     {"eval", edgefuse::cli::cmd_eval, "trajectory accuracy: ATE (aligned) / RPE against ground truth, as TUM's tools"},
+    // multi-sensor fusion (issue 4)
+    {"calibrate", edgefuse::cli::cmd_calibrate, "find the mounting T_A_B of two rigidly mounted sensors from the data"},
 };
 
 void usage(std::FILE* out) {
   std::fprintf(out, "usage: edgefuse COMMAND [ARGS]   (board %s, %s build)\n", edgefuse::build_board().name,
                edgefuse::kFixedPointBuild ? "fixed-point" : "float");
-  for (const Command& c : kCommands) std::fprintf(out, "  %-8s %s\n", c.name, c.summary);
+  for (const Command& c : kCommands) std::fprintf(out, "  %-9s %s\n", c.name, c.summary);
 }
 
 }  // namespace

@@ -39,6 +39,8 @@ enum class Region : int {
   kPyramidVertex,   //!< tracking: the frame's vertex maps, all pyramid levels, per sensor
   kPyramidNormal,   //!< tracking: the frame's normal maps, all pyramid levels, per sensor
   kIcpRowSums,      //!< tracking: ICP per-row partial sums per sensor
+  // multi-sensor fusion (issue 4)
+  kTrustMaps,       //!< per-pixel trust (uint8, 1/255) from each sensor's noise model
   kCount
 };
 
@@ -87,6 +89,8 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kPyramidVertex, "frame pyramid vertices", pyramid * sizeof(Point3<float>));
   set(Region::kPyramidNormal, "frame pyramid normals", pyramid * sizeof(Point3<float>));
   set(Region::kIcpRowSums, "icp row sums", uint64_t(c.image_height_max) * kIcpRowBytes * c.sensors_max);
+  // multi-sensor fusion (issue 4)
+  set(Region::kTrustMaps, "trust maps (uint8)", pixels * sizeof(uint8_t));
   uint64_t total = 0;
   for (const MemoryRegion& r : m.regions) total += align_up(r.bytes, kRegionAlign);
   m.total_bytes = total;
@@ -111,6 +115,7 @@ struct CoreBuffers {
   void* pyramid_vertex = nullptr;     //!< Point3<float> or Point3<Fixed> (both 12 bytes)
   void* pyramid_normal = nullptr;     //!< the same
   void* icp_rows = nullptr;           //!< IcpSums of either build, kIcpRowBytes per row
+  uint8_t* trust_maps = nullptr;      //!< sensors_max trust maps of image_*_max (multi-sensor fusion)
   std::size_t pixels_per_sensor = 0;  //!< stride between the sensors' images in each region
   std::size_t tiles_per_sensor = 0;   //!< stride between the sensors' tile arrays
   std::size_t pyramid_points_per_sensor = 0;  //!< points of one sensor's pyramid map (all levels)

@@ -9,7 +9,8 @@
 // then
 //   d <= -rho                 : no update (occluded)
 //   otherwise                 : tsdf <- (W tsdf + w(d) min(1, d/trunc)) / (W + w(d)), W <- min(W + w, cap)
-// with w(d) the Bylow weight (weight.hpp) times the sensor's trust factor. Colour is fused with its
+// with w(d) the Bylow weight (weight.hpp) times the sensor's trust factor and, when the frame has
+// a trust map, the pixel's trust (its noise at that range, sensor/noise_model.hpp). Colour is fused with its
 // own weight where |d| < colour band.
 //
 // Bricks are classified before their voxels are touched, with the min / max depth of the 8x8
@@ -41,6 +42,9 @@ namespace edgefuse {
 struct DepthFrame {
   ImageView<const uint16_t> depth;  //!< raw z-depth, metres = raw / intrinsics.depth_scale, 0 = none
   ImageView<const Rgb8> colour;     //!< optional, pixel-registered to depth (empty: no colour)
+  //! Optional per-pixel trust in 1/255 from the sensor's noise model (sensor/noise_model.hpp):
+  //! scales the weight of the samples read from that pixel (empty: full trust everywhere).
+  ImageView<const uint8_t> trust = {};
 };
 
 //! Everything integrate_bricks needs, converted once per frame to the kernel scalar.
@@ -60,6 +64,9 @@ struct IntegrationJob {
   float voxel_m;             //!< exact voxel size and origin, to place each brick once
   float origin_m[3];
   uint32_t trust_q8 = 256;   //!< sensor trust factor in 1/256 (256 = full)
+  //! Paint pass (colour_pass.hpp): only the colour of observed voxels near the depth image's
+  //! surface is updated; distances, weights and free space are left alone.
+  bool colour_only = false;
   uint32_t jump_raw = 0;     //!< raw depth difference counted as a discontinuity (= trunc)
   Real jump;                 //!< the same in metres
   DepthFrame frame;

@@ -1,0 +1,251 @@
+// edgefuse calibrate: finds the mounting T_A_B of two rigidly mounted sensors from the data (paper
+// Fig. 6): the space is filled by A at its poses, B's frames taken at the same instants are
+// registered to the space raycast at B's guessed mounting (calibrate_pair), the accepted results
+// are averaged. Refuses (exit 3) when the scene does not constrain all six directions or the
+// registration does not fit, with the reason.
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <algorithm>
+#include <string>
+
+#include "args.hpp"
+#include "board_defaults.hpp"
+#include "commands.hpp"
+#include "core_setup.hpp"
+#include "edgefuse/fusion/align_spaces.hpp"
+#include "edgefuse/tsdf/integrate.hpp"
+#include "rig_fusion.hpp"
+
+namespace edgefuse::cli {
+namespace {
+
+const char* kUsage =
+    "usage: edgefuse calibrate RIGSET --from A --to B [--frames N] [--guess tx,ty,tz,rx,ry,rz] [--out FILE]\n"
+    "                          [--poses tracked|truth] [--mode pair|maps] [--voxel M] [--trunc M] [--volume N]\n"
+    "  Fills the space with sensor A (its first N frames, default 10; tracked by ICP from its first\n"
+    "  ground-truth pose, or with --poses truth at every ground-truth pose), registers B's\n"
+    "  frames of the same instants to it and prints T_A_B (pose of B in A's frame) with its\n"
+    "  uncertainty. --guess: the mounting to start from (metres, degrees as a rotation vector;\n"
+    "  default 0). --out appends 'A B tx ty tz qx qy qz qw' (extrinsics.txt format) to FILE.\n"
+    "  Exit 3 when the data does not determine the mounting (the reason is printed).\n"
+    "  --mode maps: each sensor maps alone into its own space (its first N frames, poses relative to\n"
+    "  its first one), and the two spaces' surfaces are aligned (align_spaces); the transform between\n"
+    "  the maps is the mounting. Two spaces share the board's voxel storage: default volume 200^3\n"
+    "  (256^3 board) of 0.512 m / 200.\n";
+
+int fail(const std::string& msg, int code = 1) {
+  std::fprintf(stderr, "edgefuse calibrate: %s\n", msg.c_str());
+  return code;
+}
+
+void report(const io::RigSet& set, const std::string& folder, const std::string& a, const std::string& b, const Pose& T) {
+  for (const io::SensorExtrinsic& e : set.extrinsics)
+    if (e.sensor_a == a && e.sensor_b == b) {
+      const Pose D = e.T_a_b.inverse() * T;
+      std::printf("against %s/extrinsics.txt: %.3f mm, %.4f deg\n", folder.c_str(), 1e3f * (T.t - e.T_a_b.t).norm(),
+                  180.0f / 3.14159265f * D.angle_rad());
+    }
+}
+
+bool append_line(const std::string& path, const std::string& a, const std::string& b, const Pose& T) {
+  std::ofstream out(path, std::ios::app);
+  out << a << " " << b << " " << pose_line(T) << "\n";
+  return bool(out);
+}
+
+// --mode maps: two spaces carved from the board's one voxel storage, each filled by one sensor in
+// its own frame (its first pose), then aligned.
+int calibrate_maps(const Args& args, const BoardCapacities& board, FuseSettings settings, const io::RigSet& set,
+                   PinholeSlot& a, PinholeSlot& b, int frames, const Pose& guess) {
+  std::string err;
+  const uint64_t cap3 = uint64_t(board.volume_dim) * board.volume_dim * board.volume_dim;
+  int dim = board.volume_dim;
+  while (dim > 8 && 2 * uint64_t(dim) * dim * dim > cap3) dim -= 8;
+  if (args.has("volume")) dim = settings.dim;
+  if (2 * uint64_t(dim) * dim * dim > cap3)
+    return fail("--volume " + std::to_string(dim) + ": two such spaces do not fit the board's voxel storage", 2);
+  if (!args.has("voxel")) settings.voxel_m = settings.voxel_m * float(board.volume_dim) / float(dim);
+  if (!args.has("trunc")) settings.trunc_m = 4.0f * settings.voxel_m;
+  settings.dim = dim;
+  CoreSetup core;
+  if (!core.init(board, a.seq.intr, err)) return fail(err);
+  if (!a.bind(core.buffers, board, 0, err) || !b.bind(core.buffers, board, 1, err)) return fail(err);
+  a.filters.bilateral_enabled = false;
+  b.filters.bilateral_enabled = false;
+  const ImageView<uint16_t> spare(core.buffers.depth_frames + 2 * core.buffers.pixels_per_sensor,
+                                  board.image_width_max, board.image_height_max);
+  const std::size_t voxels = std::size_t(dim) * dim * dim, bricks = voxels / kBrickVoxels;
+  VoxelStorage sa = core.buffers.voxels, sb = core.buffers.voxels;
+  sa.colour = sb.colour = nullptr;
+  sa.colour_weight = sb.colour_weight = nullptr;
+  sa.capacity_dim = sb.capacity_dim = dim;
+  sb.tsdf += voxels;
+  sb.weight += voxels;
+  sb.brick_flags += bricks;
+  sb.brick_list += bricks;
+  TsdfVolume space[2];
+  PinholeSlot* cam[2] = {&a, &b};
+  for (int k = 0; k < 2; ++k) {
+    PinholeSlot& c = *cam[k];
+    if (!c.seq.frames[0].has_pose) return fail(c.seq.root + ": frames need poses (groundtruth.txt)");
+    const Pose T0_inv = c.seq.frames[0].T_world_cam.inverse();
+    if (!io::load_depth(c.seq.frames[0], c.seq.intr, c.load_depth, err)) return fail(err);
+    if (!centre_on_view(c.seq.intr, c.load_depth, Pose::identity(), settings, err)) return fail(err);
+    TsdfParams p = TsdfParams::defaults_for(settings.voxel_m, settings.trunc_m);
+    if (space[k].init(k == 0 ? sa : sb, dim, settings.origin_m, p) != Status::kOk) return fail("space init failed");
+    const std::size_t n = std::min<std::size_t>(std::size_t(frames), c.seq.frames.size());
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!c.seq.frames[i].has_pose) continue;
+      DepthFrame f;
+      if (!c.stage(i, true, false, 0.0f, spare, f, err)) return fail(err);
+      if (integrate<real_t>(space[k], c.seq.intr, c.ray_norms, f, T0_inv * c.seq.frames[i].T_world_cam, c.scratch) !=
+          Status::kOk)
+        return fail(c.seq.frames[i].depth_path + ": integration failed");
+    }
+  }
+  std::printf("edgefuse calibrate --mode maps: A = %s, B = %s, each mapped alone (%d frames, poses relative to its "
+              "first), two %d^3 spaces of %.4f m\n",
+              a.seq.sensor_name.c_str(), b.seq.sensor_name.c_str(), frames, dim, settings.voxel_m);
+  // View: A's first pose in A's map, with A's intrinsics; the other space's maps use slot 1's buffers.
+  const PinholeIntrinsics& vi = a.seq.intr;
+  const std::size_t off = core.buffers.pixels_per_sensor;
+  RaycastMaps om;
+  om.depth_m = ImageView<float>(core.buffers.raycast_depth + off, vi.width, vi.height);
+  om.vertex = ImageView<Vec3f>(core.buffers.raycast_vertex + off, vi.width, vi.height);
+  om.normal = ImageView<Vec3f>(core.buffers.raycast_normal + off, vi.width, vi.height);
+  FramePyramid<real_t> pyramid;
+  if (core.buffers.pyramid<real_t>(1, vi, pyramid) != Status::kOk) return fail("pyramid does not fit");
+  PairCalibrationResult r;
+  if (align_spaces<real_t>(space[0], space[1], vi, Pose::identity(), guess, pyramid, a.maps, om, a.scratch, b.scratch,
+                           ImageView<uint16_t>(spare.data, vi.width, vi.height), core.buffers.icp_workspace<real_t>(1),
+                           PairCalibrationParams(), 3, r) != Status::kOk)
+    return fail("alignment failed");
+  if (!r.accepted) return fail(std::string("refused: ") + r.reason, 3);
+  const float deg = 180.0f / 3.14159265f;
+  std::printf("T_%s_%s = %s   (map of %s in map of %s; rms %.2f mm, inliers %.2f, %d correspondences)\n",
+              a.seq.sensor_name.c_str(), b.seq.sensor_name.c_str(), pose_line(r.T_a_b).c_str(),
+              b.seq.sensor_name.c_str(), a.seq.sensor_name.c_str(), 1e3f * r.rms_m, r.inlier_ratio, r.correspondences);
+  std::printf("uncertainty (1 sigma): covariance rot %.4f %.4f %.4f deg, trans %.3f %.3f %.3f mm\n", deg * r.sigma(0),
+              deg * r.sigma(1), deg * r.sigma(2), 1e3f * r.sigma(3), 1e3f * r.sigma(4), 1e3f * r.sigma(5));
+  report(set, args.positional()[0], a.seq.sensor_name, b.seq.sensor_name, r.T_a_b);
+  if (args.has("out") && !append_line(args.get("out"), a.seq.sensor_name, b.seq.sensor_name, r.T_a_b))
+    return fail("cannot write " + args.get("out"));
+  return 0;
+}
+
+}  // namespace
+
+int cmd_calibrate(int argc, char** argv) {
+  Args args;
+  std::string err;
+  if (!args.parse(argc, argv, {"from", "to", "frames", "guess", "out", "voxel", "trunc", "volume", "poses", "mode"}, {}, err) ||
+      args.positional().size() != 1) {
+    std::fprintf(stderr, "edgefuse calibrate: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
+    return 2;
+  }
+  if (!args.has("from") || !args.has("to")) {
+    std::fprintf(stderr, "edgefuse calibrate: --from and --to are required\n%s", kUsage);
+    return 2;
+  }
+  const BoardCapacities& board = build_board();
+  BoardDefaults defaults;
+  if (!read_board_defaults(board.name, defaults, err)) return fail(err);
+  FuseSettings settings;
+  settings.voxel_m = defaults.voxel_m;
+  settings.trunc_m = defaults.trunc_m;
+  settings.max_weight = defaults.max_weight;
+  settings.dim = board.volume_dim;
+  int frames = 10;
+  Pose guess;
+  if (!args.get_float("voxel", 1e-4f, 1.0f, settings.voxel_m, err) ||
+      !args.get_float("trunc", 1e-4f, 10.0f, settings.trunc_m, err) ||
+      !args.get_int("volume", 8, board.volume_dim, settings.dim, err) || !args.get_int("frames", 1, 100000, frames, err) ||
+      (args.has("guess") && !parse_guess(args.get("guess"), guess, err)))
+    return fail(err, 2);
+  if (!args.has("trunc") && args.has("voxel")) settings.trunc_m = 4.0f * settings.voxel_m;
+  if (settings.dim % kBrickSide != 0) return fail("--volume must be a multiple of 8", 2);
+  const std::string poses = args.get("poses", "tracked");
+  if (poses != "tracked" && poses != "truth") return fail("--poses must be tracked or truth, got '" + poses + "'", 2);
+  if (args.get("from") == args.get("to")) return fail("--from and --to name the same sensor", 2);
+
+  const std::string folder = args.positional()[0];
+  io::RigSet set;
+  if (!io::open_rig_set(folder, set, err)) return fail(err);
+  for (const char* opt : {"from", "to"}) {
+    const io::RigSensor* s = set.rig.find_sensor(args.get(opt));
+    if (s == nullptr) return fail(folder + "/rig.toml has no sensor '" + args.get(opt) + "' (--" + opt + ")", 2);
+    if (s->kind != io::SensorKind::kPinhole)
+      return fail("--" + std::string(opt) + " " + args.get(opt) + ": only pinhole sensors can be calibrated as a pair", 2);
+  }
+  PinholeSlot a, b;
+  if (!io::open_depth_sequence(folder, args.get("from"), a.seq, err) ||
+      !io::open_depth_sequence(folder, args.get("to"), b.seq, err))
+    return fail(err);
+  if (a.seq.frames.empty() || b.seq.frames.empty()) return fail("a sensor has no frames");
+  if (board.sensors_max < 3) return fail("board " + std::string(board.name) + " has fewer than 3 sensor slots");
+
+  const std::string mode = args.get("mode", "pair");
+  if (mode != "pair" && mode != "maps") return fail("--mode must be pair or maps, got '" + mode + "'", 2);
+  if (mode == "maps") return calibrate_maps(args, board, settings, set, a, b, frames, guess);
+
+  CoreSetup core;
+  if (!core.init(board, a.seq.intr, err)) return fail(err);
+  if (!a.bind(core.buffers, board, 0, err) || !b.bind(core.buffers, board, 1, err)) return fail(err);
+  const ImageView<uint16_t> filter_scratch(core.buffers.depth_frames + 2 * core.buffers.pixels_per_sensor,
+                                           board.image_width_max, board.image_height_max);
+  FramePyramid<real_t> pyramid;
+  if (core.buffers.pyramid<real_t>(1, b.seq.intr, pyramid) != Status::kOk) return fail("B's pyramid does not fit");
+  const IcpWorkspace<real_t> ws = core.buffers.icp_workspace<real_t>(1);
+  if (!io::load_depth(a.seq.frames[0], a.seq.intr, a.load_depth, err)) return fail(err);
+  if (!a.seq.frames[0].has_pose) return fail(a.seq.root + ": A's frames need poses (groundtruth.txt)");
+  if (!centre_on_view(a.seq.intr, a.load_depth, a.seq.frames[0].T_world_cam, settings, err)) return fail(err);
+  if (!core.make_volume(settings, err)) return fail(err);
+
+  std::printf("edgefuse calibrate: %s, A = %s (%dx%d), B = %s (%dx%d), %d frames, voxel %.4f m, guess %s\n",
+              folder.c_str(), a.seq.sensor_name.c_str(), a.seq.intr.width, a.seq.intr.height,
+              b.seq.sensor_name.c_str(), b.seq.intr.width, b.seq.intr.height, frames, settings.voxel_m,
+              pose_line(guess).c_str());
+  PairCalibrationParams params;
+  PairCalibrationRun run;
+  FramePyramid<real_t> pyramid_a;
+  if (core.buffers.pyramid<real_t>(0, a.seq.intr, pyramid_a) != Status::kOk) return fail("A's pyramid does not fit");
+  TrackingBuffers track{&pyramid_a, core.buffers.icp_workspace<real_t>(0)};
+  if (!run_pair_calibration(a, b, core.volume, pyramid, ws, filter_scratch, frames, guess, params, run, err, true,
+                            poses == "tracked" ? &track : nullptr))
+    return fail(err);
+  if (poses == "tracked")
+    std::printf("A tracked: %d of %d frames ok, largest distance from its ground truth %.2f mm\n", run.a_tracked_ok,
+                std::min(frames, int(a.seq.frames.size())), run.a_pose_error_mm);
+  if (run.accepted == 0)
+    return fail("refused: " + (run.first_reason.empty() ? std::string("no frame of B at A's instants") : run.first_reason),
+                3);
+  const Pose& T = run.T_a_b;
+  const float deg = 180.0f / 3.14159265f;
+  std::printf("T_%s_%s = %s   (tx ty tz qx qy qz qw; %d of %zu frames accepted)\n", a.seq.sensor_name.c_str(),
+              b.seq.sensor_name.c_str(), pose_line(T).c_str(), run.accepted, run.frames.size());
+  std::printf("uncertainty (1 sigma, B frame): covariance rot %.4f %.4f %.4f deg, trans %.3f %.3f %.3f mm",
+              deg * run.sigma(0), deg * run.sigma(1), deg * run.sigma(2), 1e3f * run.sigma(3), 1e3f * run.sigma(4),
+              1e3f * run.sigma(5));
+  if (run.accepted > 1)
+    std::printf("; spread over frames rot %.4f %.4f %.4f deg, trans %.3f %.3f %.3f mm", deg * run.spread(0),
+                deg * run.spread(1), deg * run.spread(2), 1e3f * run.spread(3), 1e3f * run.spread(4),
+                1e3f * run.spread(5));
+  std::printf("\n");
+  // Against the set's extrinsics.txt when it has the pair.
+  for (const io::SensorExtrinsic& e : set.extrinsics)
+    if (e.sensor_a == a.seq.sensor_name && e.sensor_b == b.seq.sensor_name) {
+      const Pose D = e.T_a_b.inverse() * T;
+      std::printf("against %s/extrinsics.txt: %.3f mm, %.4f deg\n", folder.c_str(), 1e3f * (T.t - e.T_a_b.t).norm(),
+                  deg * D.angle_rad());
+    }
+  if (args.has("out")) {
+    std::ofstream out(args.get("out"), std::ios::app);
+    out << a.seq.sensor_name << " " << b.seq.sensor_name << " " << pose_line(T) << "\n";
+    if (!out) return fail("cannot write " + args.get("out"));
+    std::printf("written to %s\n", args.get("out").c_str());
+  }
+  return 0;
+}
+
+}  // namespace edgefuse::cli

@@ -1,0 +1,343 @@
+// edgefuse fuse RIGSET --sensors a,b,c: every listed sensor of a rig set pushes into one space
+// (pinhole cameras: pre-filters + per-pixel trust from their noise model; line scanners: profile
+// integration in the scan plane), then the RGB-D camera's colour is painted onto the fused surface
+// (colour_pass.hpp) so that geometry only the other sensors measured is coloured where the colour
+// camera saw it; points never seen in colour stay uncoloured (alpha 0).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "args.hpp"
+#include "board_defaults.hpp"
+#include "commands.hpp"
+#include "core_setup.hpp"
+#include "edgefuse/io/mesh_collector.hpp"
+#include "edgefuse/tsdf/colour_pass.hpp"
+#include "edgefuse/tsdf/extract.hpp"
+#include "edgefuse/tsdf/integrate_profile.hpp"
+#include "parallel_tsdf.hpp"
+#include "rig_fusion.hpp"
+
+namespace edgefuse::cli {
+namespace {
+
+const char* kUsage =
+    "usage: edgefuse fuse RIGSET --sensors A,B,... [--extrinsics true|calibrated|FILE] [--frames N]\n"
+    "                     [--voxel M] [--trunc M] [--volume N] [--origin X,Y,Z] [--out FILE.ply|.pcd]\n"
+    "                     [--mesh FILE.ply] [--threads N] [--guess tx,ty,tz,rx,ry,rz] [--no-trust]\n"
+    "                     [--no-paint] [--no-filter]\n"
+    "  Fuses the listed sensors of a rig set into one space. Pinhole sensors are placed by\n"
+    "  --extrinsics: 'true' (default) = each sensor's own groundtruth.txt; 'calibrated' = the\n"
+    "  reference camera's poses (the first listed with colour, else the first pinhole) times the\n"
+    "  mounting found by calibration (as `edgefuse calibrate --frames 20`, reference tracked, from\n"
+    "  --guess); FILE = the same with\n"
+    "  the mounting read from an extrinsics.txt file. Line scanners use their own poses (the robot's).\n"
+    "  Weights follow each sensor's noise model (--no-trust: equal weights); colour from the\n"
+    "  reference camera is painted onto all geometry it saw (--no-paint: only where its own depth was).\n";
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+int fail(const std::string& msg, int code = 1) {
+  std::fprintf(stderr, "edgefuse fuse: %s\n", msg.c_str());
+  return code;
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : s) {
+    if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+}  // namespace
+
+int cmd_fuse_rig(int argc, char** argv) {
+  Args args;
+  std::string err;
+  if (!args.parse(argc, argv,
+                  {"sensors", "extrinsics", "frames", "voxel", "trunc", "volume", "origin", "out", "mesh", "threads",
+                   "guess", "sigma-ref", "min-weight"},
+                  {"no-trust", "no-paint", "no-filter"}, err) ||
+      args.positional().size() != 1) {
+    std::fprintf(stderr, "edgefuse fuse: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
+    return 2;
+  }
+  const BoardCapacities& board = build_board();
+  BoardDefaults defaults;
+  if (!read_board_defaults(board.name, defaults, err)) return fail(err);
+  FuseSettings settings;
+  settings.voxel_m = defaults.voxel_m;
+  settings.trunc_m = defaults.trunc_m;
+  settings.max_weight = defaults.max_weight;
+  settings.threads = defaults.threads;
+  settings.dim = board.volume_dim;
+  int frames_max = 1 << 30;
+  Pose guess;
+  if (!args.get_float("voxel", 1e-4f, 1.0f, settings.voxel_m, err) ||
+      !args.get_float("trunc", 1e-4f, 10.0f, settings.trunc_m, err) ||
+      !args.get_int("volume", 8, board.volume_dim, settings.dim, err) ||
+      !args.get_int("threads", 1, 64, settings.threads, err) || !args.get_int("frames", 1, 1 << 30, frames_max, err) ||
+      !args.get_vec3("origin", settings.origin_m, err) ||
+      (args.has("guess") && !parse_guess(args.get("guess"), guess, err)))
+    return fail(err, 2);
+  if (!args.has("trunc") && args.has("voxel")) settings.trunc_m = 4.0f * settings.voxel_m;
+  settings.origin_given = args.has("origin");
+  if (settings.dim % kBrickSide != 0) return fail("--volume must be a multiple of 8", 2);
+  if (settings.trunc_m < settings.voxel_m) return fail("--trunc must be at least one voxel", 2);
+  const bool use_trust = !args.has("no-trust"), paint = !args.has("no-paint"), filter = !args.has("no-filter");
+  float sigma_ref = 0.5f * settings.voxel_m;
+  int min_weight = 0;
+  if (!args.get_float("sigma-ref", 1e-6f, 1.0f, sigma_ref, err) || !args.get_int("min-weight", 0, 255, min_weight, err))
+    return fail(err, 2);
+  if (!use_trust) sigma_ref = 0.0f;
+
+  const std::string folder = args.positional()[0];
+  io::RigSet set;
+  if (!io::open_rig_set(folder, set, err)) return fail(err);
+  const std::vector<std::string> names = split(args.get("sensors"));
+  if (int(names.size()) > board.sensors_max)
+    return fail("--sensors lists " + std::to_string(names.size()) + " sensors; board " + board.name + " has " +
+                    std::to_string(board.sensors_max) + " slots",
+                2);
+  std::vector<PinholeSlot> cams;
+  std::vector<io::LineScan> scans;
+  std::vector<int> scan_slot;
+  cams.reserve(names.size());
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const io::RigSensor* s = set.rig.find_sensor(names[i]);
+    if (s == nullptr) return fail(folder + "/rig.toml has no sensor '" + names[i] + "' (--sensors)", 2);
+    for (std::size_t k = 0; k < i; ++k)
+      if (names[k] == names[i]) return fail("--sensors names '" + names[i] + "' twice", 2);
+    if (s->kind == io::SensorKind::kPinhole) {
+      cams.emplace_back();
+      if (!io::open_depth_sequence(folder, names[i], cams.back().seq, err)) return fail(err);
+      cams.back().slot = int(i);
+    } else {
+      scans.emplace_back();
+      if (!io::open_line_scan(set.rig, names[i], scans.back(), err)) return fail(err);
+      scan_slot.push_back(int(i));
+    }
+  }
+  // Reference camera: the first listed with colour, else the first pinhole.
+  int ref = -1;
+  for (std::size_t i = 0; i < cams.size() && ref < 0; ++i)
+    if (cams[i].seq.colour_registered) ref = int(i);
+  if (ref < 0 && !cams.empty()) ref = 0;
+
+  CoreSetup core;
+  PinholeIntrinsics init_intr;
+  init_intr.width = init_intr.height = 8;
+  init_intr.fx = init_intr.fy = 8;
+  if (!core.init(board, ref >= 0 ? cams[std::size_t(ref)].seq.intr : init_intr, err)) return fail(err);
+  for (PinholeSlot& c : cams)
+    if (!c.bind(core.buffers, board, c.slot, err)) return fail(err);
+  // The filters' intermediate image: the depth buffer of a slot no camera uses (a line scanner's or the last).
+  int spare = board.sensors_max - 1;
+  for (const PinholeSlot& c : cams)
+    if (c.slot == spare) spare = -1;
+  if (spare < 0) {
+    if (int(names.size()) >= board.sensors_max) return fail("no spare frame buffer for the filters; list fewer sensors");
+    spare = int(names.size());
+  }
+  const ImageView<uint16_t> filter_scratch(core.buffers.depth_frames + std::size_t(spare) * core.buffers.pixels_per_sensor,
+                                           board.image_width_max, board.image_height_max);
+
+  // Volume placement.
+  if (!settings.origin_given) {
+    if (ref >= 0) {
+      PinholeSlot& r = cams[std::size_t(ref)];
+      if (!io::load_depth(r.seq.frames[0], r.seq.intr, r.load_depth, err)) return fail(err);
+      if (!r.seq.frames[0].has_pose) return fail(r.seq.root + ": the first frame has no pose");
+      if (!centre_on_view(r.seq.intr, r.load_depth, r.seq.frames[0].T_world_cam, settings, err)) return fail(err);
+    } else {
+      std::vector<float> c[3];
+      const io::LineScan& s = scans[0];
+      for (std::size_t p = 0; p < s.profiles.size(); p += 4)
+        for (int i = 0; i < s.profiles.beams; i += 8)
+          if (s.has_pose[p] && s.profiles.profile(p)[i] > 0.0f) {
+            const Vec3f w = s.T_world_sensor[p] * (s.profiles.profile(p)[i] * s.sensor.line.beam_direction(i));
+            for (int a = 0; a < 3; ++a) c[a].push_back(w(a));
+          }
+      if (c[0].empty()) return fail(folder + ": the line scanner has no returns to centre the volume on (give --origin)");
+      for (int a = 0; a < 3; ++a) {
+        std::nth_element(c[a].begin(), c[a].begin() + std::ptrdiff_t(c[a].size() / 2), c[a].end());
+        settings.origin_m(a) = c[a][c[a].size() / 2] - 0.5f * float(settings.dim) * settings.voxel_m;
+      }
+    }
+  }
+  if (!core.make_volume(settings, err)) return fail(err);
+  const Vec3f& o = core.volume.origin_m();
+  std::printf("edgefuse fuse: %s, sensors %s, volume %d^3 x %.4f m at %.4f,%.4f,%.4f, trunc %.4f m, trust %s, %s "
+              "kernels\n",
+              folder.c_str(), args.get("sensors").c_str(), settings.dim, settings.voxel_m, o.x(), o.y(), o.z(),
+              settings.trunc_m, use_trust ? "noise models" : "off", kFixedPointBuild ? "fixed-point" : "float");
+
+  // Mountings of the non-reference cameras.
+  const std::string extr = args.get("extrinsics", "true");
+  std::vector<Pose> mount(cams.size());
+  std::vector<char> mounted(cams.size(), 0);
+  if (extr != "true") {
+    if (ref < 0) return fail("--extrinsics " + extr + " needs a pinhole reference camera", 2);
+    const PinholeSlot& r = cams[std::size_t(ref)];
+    std::vector<io::SensorExtrinsic> file;
+    if (extr != "calibrated" && !io::read_extrinsics_txt(extr, file, err)) return fail(err);
+    for (std::size_t i = 0; i < cams.size(); ++i) {
+      if (int(i) == ref) continue;
+      if (extr == "calibrated") {
+        FramePyramid<real_t> pyramid;
+        if (core.buffers.pyramid<real_t>(cams[i].slot, cams[i].seq.intr, pyramid) != Status::kOk)
+          return fail("pyramid does not fit");
+        PairCalibrationRun run;
+        std::printf("calibrating T_%s_%s ...\n", r.seq.sensor_name.c_str(), cams[i].seq.sensor_name.c_str());
+        FramePyramid<real_t> pyramid_ref;
+        if (core.buffers.pyramid<real_t>(r.slot, r.seq.intr, pyramid_ref) != Status::kOk) return fail("pyramid does not fit");
+        TrackingBuffers track{&pyramid_ref, core.buffers.icp_workspace<real_t>(r.slot)};
+        if (!run_pair_calibration(cams[std::size_t(ref)], cams[i], core.volume, pyramid,
+                                  core.buffers.icp_workspace<real_t>(cams[i].slot), filter_scratch,
+                                  std::min(frames_max, 20), guess, PairCalibrationParams(), run, err, false, &track))
+          return fail(err);
+        core.volume.clear();
+        if (run.accepted == 0) return fail("calibration of " + cams[i].seq.sensor_name + " refused: " + run.first_reason, 3);
+        mount[i] = run.T_a_b;
+        std::printf("T_%s_%s = %s (%d frames)\n", r.seq.sensor_name.c_str(), cams[i].seq.sensor_name.c_str(),
+                    pose_line(run.T_a_b).c_str(), run.accepted);
+      } else {
+        bool found = false;
+        for (const io::SensorExtrinsic& e : file)
+          if (e.sensor_a == r.seq.sensor_name && e.sensor_b == cams[i].seq.sensor_name) {
+            mount[i] = e.T_a_b;
+            found = true;
+          }
+        if (!found) return fail(extr + " has no line '" + r.seq.sensor_name + " " + cams[i].seq.sensor_name + " ...'");
+      }
+      mounted[i] = 1;
+    }
+  }
+
+  WorkerPool pool;
+  pool.start(settings.threads);
+  const auto t_start = std::chrono::steady_clock::now();
+  for (std::size_t c = 0; c < cams.size(); ++c) {
+    PinholeSlot& cam = cams[c];
+    const std::size_t n = std::min<std::size_t>(cam.seq.frames.size(), std::size_t(frames_max));
+    const bool colour = int(c) == ref && cam.seq.colour_registered && core.volume.has_colour();
+    std::size_t pushed = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      Pose T;
+      if (mounted[c]) {
+        const int j = frame_near(cams[std::size_t(ref)].seq, cam.seq.frames[i].stamp_s);
+        if (j < 0 || !cams[std::size_t(ref)].seq.frames[std::size_t(j)].has_pose) continue;
+        T = cams[std::size_t(ref)].seq.frames[std::size_t(j)].T_world_cam * mount[c];
+      } else {
+        if (!cam.seq.frames[i].has_pose) return fail(cam.seq.frames[i].depth_path + " has no ground-truth pose");
+        T = cam.seq.frames[i].T_world_cam;
+      }
+      DepthFrame f;
+      if (!cam.stage(i, filter, colour, sigma_ref, filter_scratch, f, err)) return fail(err);
+      const Status s = integrate_parallel<real_t>(pool, core.volume, cam.seq.intr, cam.ray_norms, f, T, cam.scratch);
+      if (s != Status::kOk) return fail(cam.seq.frames[i].depth_path + ": " + to_string(s));
+      ++pushed;
+    }
+    std::printf("%s: %zu frames pushed (%s%s%s)\n", cam.seq.sensor_name.c_str(), pushed,
+                cam.tof ? "ToF" : "structured light", filter ? ", pre-filtered" : "", colour ? ", colour" : "");
+  }
+  for (std::size_t k = 0; k < scans.size(); ++k) {
+    const io::LineScan& scan = scans[k];
+    LineScannerModel model;
+    model.beams = scan.sensor.line.beams;
+    model.fov_deg = scan.sensor.line.fov_deg;
+    model.min_range_m = scan.sensor.line.min_range_m;
+    model.max_range_m = scan.sensor.line.max_range_m;
+    LineScannerTables<real_t> tables;
+    tables.tan_theta = reinterpret_cast<real_t*>(core.buffers.ray_norms) +
+                       std::size_t(scan_slot[k]) * core.buffers.pixels_per_sensor;
+    tables.capacity = int(core.buffers.pixels_per_sensor);
+    if (tables.build(model) != Status::kOk) return fail(scan.sensor.name + ": bad line scanner parameters");
+    const float trust = use_trust ? NoiseModel::constant(20e-6f).trust(sigma_ref, 0.0f) : 1.0f;
+    std::size_t pushed = 0;
+    for (std::size_t p = 0; p < scan.profiles.size(); ++p) {
+      if (!scan.has_pose[p]) continue;
+      const Status s = integrate_profile<real_t>(core.volume, model, tables, scan.profiles.profile(p),
+                                                 scan.T_world_sensor[p], 0.0f, trust);
+      if (s != Status::kOk) return fail(scan.sensor.name + ": profile " + std::to_string(p) + ": " + to_string(s));
+      ++pushed;
+    }
+    std::printf("%s: %zu profiles pushed (line scanner, %d beams)\n", scan.sensor.name.c_str(), pushed, model.beams);
+  }
+  if (paint && ref >= 0 && cams[std::size_t(ref)].seq.colour_registered && core.volume.has_colour()) {
+    PinholeSlot& cam = cams[std::size_t(ref)];
+    const std::size_t n = std::min<std::size_t>(cam.seq.frames.size(), std::size_t(frames_max));
+    for (std::size_t i = 0; i < n; ++i) {
+      const io::FrameRef& f = cam.seq.frames[i];
+      if (f.colour_path.empty() || !f.has_pose) continue;
+      if (!io::load_colour(f, cam.seq.intr, cam.load_colour, err)) return fail(err);
+      std::copy(cam.load_colour.begin(), cam.load_colour.end(), cam.colour.data);
+      const Status s = paint_colour<real_t>(core.volume, cam.seq.intr, cam.ray_norms, cam.colour, f.T_world_cam,
+                                            cam.maps, cam.scratch, cam.depth);
+      if (s != Status::kOk) return fail(f.colour_path + ": paint pass: " + to_string(s));
+    }
+    std::printf("%s: colour painted onto the fused surface from %zu frames\n", cam.seq.sensor_name.c_str(), n);
+  }
+  pool.stop();
+  const double fuse_ms = ms_since(t_start);
+
+  io::PointCloud cloud;
+  const Status xs = core.extract_cloud(cloud);
+  if (min_weight > 0) {
+    // Confidence filter: keep a point only where some of the 8 voxels around it holds at least
+    // min_weight (weight units: 1/8 sample x trust), i.e. the surface there is supported by that much data.
+    const TsdfVolume& vol = core.volume;
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+      const Vec3f g = (cloud.points[i] - vol.origin_m()) / vol.voxel_m() - Vec3f::Constant(0.5f);
+      int lo = 0;  // the best-supported of the 8 voxels
+      for (int c = 0; c < 8; ++c) {
+        const int x = int(std::floor(g.x())) + (c & 1), y = int(std::floor(g.y())) + ((c >> 1) & 1),
+                  z = int(std::floor(g.z())) + ((c >> 2) & 1);
+        if (x < 0 || y < 0 || z < 0 || x >= vol.dim() || y >= vol.dim() || z >= vol.dim()) continue;
+        lo = std::max(lo, int(vol.weight()[vol.index(x, y, z)]));
+      }
+      if (lo < min_weight) continue;
+      cloud.points[kept] = cloud.points[i];
+      cloud.normals[kept] = cloud.normals[i];
+      if (!cloud.colours.empty()) cloud.colours[kept] = cloud.colours[i];
+      ++kept;
+    }
+    cloud.points.resize(kept);
+    cloud.normals.resize(kept);
+    if (!cloud.colours.empty()) cloud.colours.resize(kept);
+    cloud.width = int(kept);
+  }
+  std::size_t coloured = 0;
+  for (const Rgba8& c : cloud.colours) coloured += c.a != 0;
+  const std::string out = args.get("out", "fused.ply");
+  if (!write_cloud(out, cloud, err)) return fail(err);
+  std::printf("cloud: %zu points (%zu coloured, %zu uncoloured)%s -> %s\n", cloud.size(), coloured,
+              cloud.size() - coloured, xs == Status::kOutputTruncated ? " (truncated at the board's capacity)" : "",
+              out.c_str());
+  if (args.has("mesh")) {
+    io::PlyMeshCollector mesh;
+    const Status ms = extract_mesh(core.volume, core.buffers.mesh_scratch, mesh);
+    if (ms != Status::kOk || !mesh.write(args.get("mesh"), err))
+      return fail("mesh: " + (ms != Status::kOk ? std::string(to_string(ms)) : err));
+    std::printf("mesh: %zu vertices -> %s\n", mesh.mesh().vertices.size(), args.get("mesh").c_str());
+  }
+  std::printf("sensors=%s points=%zu coloured=%zu voxels=%zu fuse_ms=%.1f\n", args.get("sensors").c_str(), cloud.size(),
+              coloured, core.volume.observed_voxels(), fuse_ms);
+  return 0;
+}
+
+}  // namespace edgefuse::cli

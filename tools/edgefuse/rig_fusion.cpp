@@ -1,0 +1,262 @@
+#include "rig_fusion.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "edgefuse/tracking/tracker.hpp"
+#include "edgefuse/tsdf/integrate.hpp"
+#include "edgefuse/tsdf/raycast.hpp"
+
+namespace edgefuse::cli {
+
+bool PinholeSlot::bind(CoreBuffers& b, const BoardCapacities& board, int slot_index, std::string& err) {
+  const PinholeIntrinsics& intr = seq.intr;
+  if (slot_index >= board.sensors_max) {
+    err = "board " + std::string(board.name) + " has buffers for " + std::to_string(board.sensors_max) + " sensors";
+    return false;
+  }
+  if (intr.width > board.image_width_max || intr.height > board.image_height_max) {
+    err = "sensor " + seq.sensor_name + ": a " + std::to_string(intr.width) + "x" + std::to_string(intr.height) +
+          " image exceeds board " + board.name + "'s largest image";
+    return false;
+  }
+  slot = slot_index;
+  const std::size_t off = std::size_t(slot) * b.pixels_per_sensor;
+  const int w = intr.width, h = intr.height;
+  ray_norms = ImageView<real_t>(reinterpret_cast<real_t*>(b.ray_norms) + off, w, h);
+  if (build_ray_norms<real_t>(intr, ray_norms) != Status::kOk) {
+    err = "sensor " + seq.sensor_name + ": bad intrinsics";
+    return false;
+  }
+  scratch = b.scratch(slot);
+  maps.depth_m = ImageView<float>(b.raycast_depth + off, w, h);
+  maps.vertex = ImageView<Vec3f>(b.raycast_vertex + off, w, h);
+  maps.normal = ImageView<Vec3f>(b.raycast_normal + off, w, h);
+  maps.colour = board.colour ? ImageView<Rgba8>(b.raycast_colour + off, w, h) : ImageView<Rgba8>();
+  depth = ImageView<uint16_t>(b.depth_frames + off, w, h);
+  colour = ImageView<Rgb8>(b.colour_frames + off, w, h);
+  tof = !seq.frames.empty() && !seq.frames[0].amplitude_path.empty();
+  filters = DepthFilterChain<real_t>::defaults_for(intr, tof ? DepthSensorKind::kTimeOfFlight
+                                                             : DepthSensorKind::kStructuredLight);
+  if (filters.prepare(intr) != Status::kOk) {
+    err = "sensor " + seq.sensor_name + ": depth filters: bad parameters";
+    return false;
+  }
+  noise = tof ? NoiseModel::time_of_flight() : NoiseModel::structured_light();
+  trust = ImageView<uint8_t>(b.trust_maps + off, w, h);
+  return true;
+}
+
+bool PinholeSlot::stage(std::size_t i, bool filter, bool with_colour, float sigma_ref_m,
+                        ImageView<uint16_t> filter_scratch, DepthFrame& frame, std::string& err) {
+  const io::FrameRef& f = seq.frames[i];
+  const PinholeIntrinsics& intr = seq.intr;
+  if (!io::load_depth(f, intr, load_depth, err)) return false;
+  std::copy(load_depth.begin(), load_depth.end(), depth.data);
+  ImageView<const uint16_t> amp;
+  if (tof && !f.amplitude_path.empty()) {
+    if (!io::load_amplitude(f, intr, load_amplitude, err)) return false;
+    amp = ImageView<const uint16_t>(load_amplitude.data(), intr.width, intr.height);
+  }
+  if (filter) {
+    const ImageView<uint16_t> fs(filter_scratch.data, intr.width, intr.height);
+    if (filters.run(depth, amp, fs, depth) != Status::kOk) {
+      err = f.depth_path + ": depth filters failed";
+      return false;
+    }
+  }
+  frame = DepthFrame{};
+  frame.depth = depth;
+  if (with_colour && !f.colour_path.empty()) {
+    if (!io::load_colour(f, intr, load_colour, err)) return false;
+    std::copy(load_colour.begin(), load_colour.end(), colour.data);
+    frame.colour = colour;
+  }
+  if (sigma_ref_m > 0.0f) {
+    if (build_trust_map(noise, sigma_ref_m, depth, intr.depth_scale, amp, trust) != Status::kOk) {
+      err = f.depth_path + ": trust map failed";
+      return false;
+    }
+    frame.trust = trust;
+  }
+  return true;
+}
+
+int frame_near(const io::DepthSequence& seq, double stamp_s) {
+  int best = -1;
+  double best_dt = 0.02;
+  for (std::size_t i = 0; i < seq.frames.size(); ++i) {
+    const double dt = std::fabs(seq.frames[i].stamp_s - stamp_s);
+    if (dt <= best_dt) {
+      best_dt = dt;
+      best = int(i);
+    }
+  }
+  return best;
+}
+
+std::string pose_line(const Pose& T) {
+  const Eigen::Quaternionf q = T.quaternion();
+  char buf[200];
+  std::snprintf(buf, sizeof(buf), "%.9f %.9f %.9f %.9f %.9f %.9f %.9f", T.t.x(), T.t.y(), T.t.z(), q.x(), q.y(), q.z(),
+                q.w());
+  return buf;
+}
+
+bool parse_guess(const std::string& text, Pose& T, std::string& err) {
+  float v[6];
+  std::stringstream ss(text);
+  std::string item;
+  int n = 0;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const float x = std::strtof(item.c_str(), &end);
+    if (n >= 6 || item.empty() || end == item.c_str() || *end != 0 || !std::isfinite(x)) {
+      err = "--guess: expected tx,ty,tz,rx,ry,rz (metres, degrees), got '" + text + "'";
+      return false;
+    }
+    v[n++] = x;
+  }
+  if (n != 6) {
+    err = "--guess: expected 6 comma-separated numbers (tx,ty,tz in m, rx,ry,rz in degrees), got '" + text + "'";
+    return false;
+  }
+  const Vec3f r = Vec3f(v[3], v[4], v[5]) * (3.14159265f / 180.0f);
+  T = Pose();
+  if (r.norm() > 0.0f) T.R = Eigen::AngleAxisf(r.norm(), r.normalized()).toRotationMatrix();
+  T.t = Vec3f(v[0], v[1], v[2]);
+  return true;
+}
+
+bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, FramePyramid<real_t>& pyramid,
+                          const IcpWorkspace<real_t>& ws, ImageView<uint16_t> filter_scratch, int frames,
+                          const Pose& guess, const PairCalibrationParams& params, PairCalibrationRun& run,
+                          std::string& err, bool verbose, const TrackingBuffers* track_a) {
+  run = PairCalibrationRun{};
+  // Masks and jump edges, but no bilateral smoothing: it moves depth edges, and edges are what pin
+  // the lateral directions (measured on bin_rig_a: 1.1 mm bias with it, 0.6 mm without).
+  // (The slots' own settings are restored on return: fusion keeps the bilateral filter.)
+  struct Restore {
+    PinholeSlot& a;
+    PinholeSlot& b;
+    bool ba, bb;
+    ~Restore() {
+      a.filters.bilateral_enabled = ba;
+      b.filters.bilateral_enabled = bb;
+    }
+  } restore{a, b, a.filters.bilateral_enabled, b.filters.bilateral_enabled};
+  a.filters.bilateral_enabled = false;
+  b.filters.bilateral_enabled = false;
+  const std::size_t n = std::min<std::size_t>(std::size_t(frames), a.seq.frames.size());
+  std::vector<Pose> pose_a(n);
+  Tracker tracker;
+  if (track_a != nullptr) {
+    if (!a.seq.frames[0].has_pose) {
+      err = a.seq.root + ": the first frame needs a pose to start tracking from";
+      return false;
+    }
+    // Every tracked frame is pushed: the model B is registered to should be as complete and as
+    // smooth as A's data allows (the 1 cm / 1 degree push policy keeps only ~6 of bin_rig_a's 20).
+    TrackerParams tp;
+    tp.push.every_frame = true;
+    if (tracker.start(a.seq.frames[0].T_world_cam, tp) != Status::kOk) {
+      err = "bad tracker parameters";
+      return false;
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    DepthFrame f;
+    if (!a.stage(i, true, false, 0.0f, filter_scratch, f, err)) return false;
+    bool push = true;
+    if (track_a != nullptr) {
+      TrackResult r;
+      Status s = i > 0 ? raycast<real_t>(volume, a.seq.intr, tracker.raycast_pose(), a.maps, a.scratch) : Status::kOk;
+      if (s == Status::kOk) s = build_pyramid<real_t>(f.depth, PyramidParams(), *track_a->pyramid);
+      if (s == Status::kOk) s = tracker.track<real_t>(*track_a->pyramid, a.maps, a.seq.intr, track_a->ws, r);
+      if (s != Status::kOk) {
+        err = a.seq.frames[i].depth_path + ": tracking failed";
+        return false;
+      }
+      pose_a[i] = r.T_world_cam;
+      push = r.push;
+      run.a_tracked_ok += r.state == TrackState::kOk;
+      if (a.seq.frames[i].has_pose)
+        run.a_pose_error_mm = std::max(run.a_pose_error_mm, 1e3f * (r.T_world_cam.t - a.seq.frames[i].T_world_cam.t).norm());
+    } else {
+      if (!a.seq.frames[i].has_pose) {
+        err = a.seq.root + ": frame " + std::to_string(i) + " has no pose";
+        return false;
+      }
+      pose_a[i] = a.seq.frames[i].T_world_cam;
+    }
+    if (push && integrate<real_t>(volume, a.seq.intr, a.ray_norms, f, pose_a[i], a.scratch) != Status::kOk) {
+      err = a.seq.frames[i].depth_path + ": integration failed";
+      return false;
+    }
+  }
+  Vec3f t_sum = Vec3f::Zero();
+  Eigen::Vector4f q_sum = Eigen::Vector4f::Zero();
+  std::vector<Pose> accepted;
+  for (std::size_t i = 0; i < n; ++i) {
+    const int j = frame_near(b.seq, a.seq.frames[i].stamp_s);
+    if (j < 0) continue;
+    DepthFrame f;
+    if (!b.stage(std::size_t(j), true, false, 0.0f, filter_scratch, f, err)) return false;
+    if (build_pyramid<real_t>(f.depth, PyramidParams(), pyramid) != Status::kOk) {
+      err = b.seq.frames[std::size_t(j)].depth_path + ": pyramid failed";
+      return false;
+    }
+    PairCalibrationResult r;
+    if (calibrate_pair<real_t>(volume, pose_a[i], guess, b.seq.intr, pyramid, b.maps, b.scratch, ws,
+                               params, r) != Status::kOk) {
+      err = "calibration failed on frame " + std::to_string(j);
+      return false;
+    }
+    run.frames.push_back(r);
+    run.frame_index.push_back(j);
+    if (verbose) {
+      const Eigen::Quaternionf q = r.T_a_b.quaternion();
+      std::printf("frame %d: %s  t %.2f %.2f %.2f mm  q %.5f %.5f %.5f %.5f  rms %.2f mm  inliers %.2f  %d dof "
+                  "(weakest %.1e)%s%s\n",
+                  j, r.accepted ? "accepted" : "refused ", 1e3f * r.T_a_b.t.x(), 1e3f * r.T_a_b.t.y(),
+                  1e3f * r.T_a_b.t.z(), q.x(), q.y(), q.z(), q.w(), 1e3f * r.rms_m, r.inlier_ratio, r.observable,
+                  r.weakest_ratio, r.accepted ? "" : ": ", r.reason);
+    }
+    if (!r.accepted) {
+      if (run.first_reason.empty()) run.first_reason = r.reason;
+      continue;
+    }
+    accepted.push_back(r.T_a_b);
+    t_sum += r.T_a_b.t;
+    Eigen::Vector4f q = r.T_a_b.quaternion().coeffs();
+    if (q.dot(q_sum) < 0.0f) q = -q;
+    q_sum += q;
+    run.sigma += r.sigma;
+  }
+  run.accepted = int(accepted.size());
+  if (run.accepted == 0) return true;
+  const float k = float(run.accepted);
+  run.T_a_b.t = t_sum / k;
+  Eigen::Quaternionf qm;
+  qm.coeffs() = q_sum.normalized();
+  run.T_a_b.R = qm.toRotationMatrix();
+  run.sigma /= k;
+  if (run.accepted > 1) {
+    Vec6f var = Vec6f::Zero();
+    for (const Pose& T : accepted) {
+      // Deviation in B's frame: T_mean^-1 T = exp(xi).
+      const Pose D = run.T_a_b.inverse() * T;
+      const Eigen::AngleAxisf aa(D.R);
+      Vec6f xi;
+      xi.head<3>() = aa.axis() * aa.angle();
+      xi.tail<3>() = D.t;
+      var += xi.cwiseProduct(xi);
+    }
+    run.spread = (var / (k - 1.0f)).cwiseSqrt();
+  }
+  return true;
+}
+
+}  // namespace edgefuse::cli
