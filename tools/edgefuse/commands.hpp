@@ -8,5 +8,7 @@ int cmd_fuse(int argc, char** argv);
 int cmd_memmap(int argc, char** argv);
 int cmd_track(int argc, char** argv);
 int cmd_eval(int argc, char** argv);
+// pose link (issue 7, feat/link)
+int cmd_listen(int argc, char** argv);
 
 }  // namespace edgefuse::cli

@@ -19,6 +19,8 @@ const Command kCommands[] = {
     {"memmap", edgefuse::cli::cmd_memmap, "print a board's static memory map"},
     {"track", edgefuse::cli::cmd_track, "track the sensor by ICP against the fused model, fuse, write the trajectory"},
     {"eval", edgefuse::cli::cmd_eval, "trajectory accuracy: ATE (aligned) / RPE against ground truth, as TUM's tools"},
+    // pose link (issue 7, feat/link)
+    {"listen", edgefuse::cli::cmd_listen, "decode and print the pose link (serial, TCP, UDP or a captured file)"},
 };
 
 void usage(std::FILE* out) {
