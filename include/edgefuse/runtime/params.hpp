@@ -26,6 +26,7 @@ constexpr size_t kParamTextMax = 127;
 enum ParamId : int {
   kLinkSerial = 0,
   kLinkBaud,
+  kLinkTcp,
   kLinkTcpBind,
   kLinkTcpPort,
   kLinkUdpHost,
