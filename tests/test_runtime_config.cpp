@@ -113,6 +113,20 @@ TEST(RuntimeConfig, BadTomlStopsWithAClearMessage) {
   CHECK(contains(err, "/nonexistent/edgefused.toml"));
 }
 
+TEST(RuntimeConfig, TheShippedHostSimConfigLoadsAndEqualsTheDefaults) {
+  ParamStore p;
+  std::string err;
+  CHECK_TEXT(hal::load_config_toml(std::string(EDGEFUSE_SOURCE_DIR) + "/board/host-sim/edgefused.toml", p, err),
+             err.c_str());
+  ParamStore defaults;
+  char a[ParamStore::kTextCap], b[ParamStore::kTextCap];
+  for (int i = 0; i < kParamCount; ++i) {
+    p.format(i, a, sizeof(a));
+    defaults.format(i, b, sizeof(b));
+    STRCMP_EQUAL_TEXT(b, a, kParamDefs[i].key);
+  }
+}
+
 TEST(RuntimeConfig, SetOverrides) {
   ParamStore p;
   std::string err;
