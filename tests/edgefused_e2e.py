@@ -9,6 +9,7 @@ usage: edgefused_e2e.py EDGEFUSED EDGEFUSE LISTEN_PY WORKDIR
 """
 import os
 import select
+import shutil
 import signal
 import socket
 import subprocess
@@ -77,6 +78,7 @@ def check_csv(text, who):
         check(ok, "%s: object %d pose matches the simulated bin" % (who, oid))
 
 
+shutil.rmtree(WORK, ignore_errors=True)  # a previous run's calibration slots
 os.makedirs(WORK, exist_ok=True)
 # --- bad configuration stops start-up with key, value and range ------------------------------
 bad = subprocess.run([EDGEFUSED, "--set", "link.tcp_port=70000"], capture_output=True, text=True, cwd=WORK)

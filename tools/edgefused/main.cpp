@@ -80,7 +80,8 @@ class FdWriter : public runtime::ConsoleWriter {
  public:
   int fd = -1;
   void write(const char* s, size_t n) override {
-    if (fd >= 0) hal::write_all(fd, s, n, 50);  // a stuck terminal must not stall the pipeline
+    // A terminal that stopped reading must not stall the pipeline: wait at most 5 ms, then drop.
+    if (fd >= 0) hal::write_all(fd, s, n, 5);
   }
 };
 
@@ -91,8 +92,16 @@ class LinkFanout : public runtime::LinkSink {
   hal::TcpServer* tcp = nullptr;
   hal::UdpSender* udp = nullptr;
   uint32_t serial_drops = 0;
+  bool serial_resync = false;  // a frame may have gone out cut short: a 0x00 ends it first
   void send(const uint8_t* frame, size_t len) override {
-    if (serial_fd >= 0 && !hal::write_all(serial_fd, frame, len, 0)) ++serial_drops;
+    if (serial_fd >= 0) {
+      const uint8_t zero = 0;
+      if (serial_resync) serial_resync = !hal::write_all(serial_fd, &zero, 1, 0);
+      if (serial_resync || !hal::write_all(serial_fd, frame, len, 0)) {
+        ++serial_drops;  // the line is full (nobody reading, or slower than the results)
+        serial_resync = true;
+      }
+    }
     if (tcp != nullptr) tcp->broadcast(frame, len);
     if (udp != nullptr) udp->send(frame, len);
   }
@@ -240,6 +249,8 @@ int main(int argc, char** argv) {
   std::fflush(stdout);
 
   pollfd fds[3 + hal::TcpServer::kMaxClients];
+  runtime::RuntimeState last_state = rt.state();
+  uint32_t last_results = 0;
   while (!g_stop) {
     int n = 0;
     if (console_port.fd >= 0) fds[n++] = {console_port.fd, POLLIN, 0};
@@ -259,6 +270,17 @@ int main(int argc, char** argv) {
     g_tcp.service();
     const uint64_t t = now_us();
     rt.tick(t);
+    if (rt.state() != last_state || rt.results_sent() != last_results) {
+      // log.level info (2) and up: state changes; debug (3): every result.
+      if (g_params.get_int(runtime::kLogLevel) >= 2 && rt.state() != last_state)
+        std::printf("state: %s\n", runtime::to_string(rt.state()));
+      if (g_params.get_int(runtime::kLogLevel) >= 3 && rt.results_sent() != last_results)
+        std::printf("result: seq %u sent (tcp clients %d, serial drops %u)\n", unsigned(rt.results_sent() - 1),
+                    g_tcp.client_count(), unsigned(g_link.serial_drops));
+      std::fflush(stdout);
+      last_state = rt.state();
+      last_results = rt.results_sent();
+    }
     if (watchdog_us > 0 && t >= next_watchdog_us) {
       hal::sd_notify_send("WATCHDOG=1");
       next_watchdog_us = t + watchdog_us / 2;
