@@ -5,7 +5,7 @@ heartbeats over the link pseudo-terminal; the poses must equal the simulated bin
 stays flat over many localisation cycles; SIGTERM stops it cleanly; bad configuration values stop
 start-up with a message naming key, value and range.
 
-usage: edgefused_e2e.py EDGEFUSED EDGEFUSE LISTEN_PY WORKDIR
+usage: edgefused_e2e.py EDGEFUSED EDGEFUSE LISTEN_PY WORKDIR [sanitized]
 """
 import os
 import select
@@ -18,6 +18,8 @@ import termios
 import time
 
 EDGEFUSED, EDGEFUSE, LISTEN_PY, WORK = sys.argv[1:5]
+# Under AddressSanitizer its own bookkeeping maps memory: the flat-memory check is skipped there.
+SANITIZED = len(sys.argv) > 5 and sys.argv[5] == "sanitized"
 # tools/edgefused/sim_pipeline.cpp: kSimObjects (id, t, q, score)
 TRUTH = {
     1: ((0.412, -0.105, 0.031), (0.0, 0.0, 0.2588190, 0.9659258), 0.93),
@@ -167,7 +169,7 @@ for _ in range(30):
     command(con, "status")
     command(con, "param get")
 after = vm_data_kib(d.pid)
-check(before > 0 and after == before, "VmData flat over 30 localise cycles: %d -> %d KiB" % (before, after))
+check(SANITIZED or (before > 0 and after == before), "VmData flat over 30 localise cycles: %d -> %d KiB" % (before, after))
 
 # --- clean stop ------------------------------------------------------------------------------
 d.send_signal(signal.SIGTERM)

@@ -202,7 +202,9 @@ TEST(ConsolePty, ScriptedSession) {
 TEST(ConsolePty, WrongArgumentsGiveErr) {
   Session s;
   CHECK(ends_err(s.cmd("frobnicate"), 1));
-  CHECK(ends_err(s.cmd("calib"), 2));
+  std::string usage = s.cmd("calib");
+  CHECK(ends_err(usage, 2));
+  CHECK_TEXT(usage.find("usage: calib <fuse|show|set|save|load|reset>") != std::string::npos, usage.c_str());
   CHECK(ends_err(s.cmd("calib explode"), 2));
   CHECK(ends_err(s.cmd("calib set tof 1 2 3"), 2));
   CHECK(ends_err(s.cmd("calib set tof a b c d e f g"), 2));

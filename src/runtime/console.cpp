@@ -260,13 +260,16 @@ CmdResult Console::dispatch(int argc, char** argv) {
     }
     return c.run(*this, service_, params_, out_, version_, nargs, argv + first);
   }
-  if (name_known) {
+  if (name_known) {  // "calib" alone or with an unknown second word: list the second words
     static char msg[128];
-    int n = std::snprintf(msg, sizeof(msg), "usage:");
+    int n = std::snprintf(msg, sizeof(msg), "usage: %s <", argv[0]);
+    const char* sep = "";
     for (const Command& c : kCommands)
-      if (!std::strcmp(c.name, argv[0]) && n < int(sizeof(msg)))
-        n += std::snprintf(msg + n, sizeof(msg) - size_t(n), " %s |", c.sub);
-    if (n > 0 && n < int(sizeof(msg)) && msg[n - 1] == '|') msg[n - 2] = '\0';
+      if (!std::strcmp(c.name, argv[0]) && n > 0 && n < int(sizeof(msg))) {
+        n += std::snprintf(msg + n, sizeof(msg) - size_t(n), "%s%s", sep, c.sub);
+        sep = "|";
+      }
+    if (n > 0 && n < int(sizeof(msg)) - 1) std::snprintf(msg + n, sizeof(msg) - size_t(n), ">");
     return CmdResult::error(ConsoleError::kBadArguments, msg);
   }
   return CmdResult::error(ConsoleError::kUnknownCommand, "unknown command (try help)");
