@@ -7,6 +7,7 @@ start-up with a message naming key, value and range.
 
 usage: edgefused_e2e.py EDGEFUSED EDGEFUSE LISTEN_PY WORKDIR [sanitized]
 """
+import importlib.util
 import os
 import select
 import shutil
@@ -204,6 +205,49 @@ check(notes[:1] == ["READY=1"] and notes.count("WATCHDOG=1") >= 3 and notes[-1:]
       "sd_notify: READY, watchdog pings, STOPPING (%d messages)" % len(notes))
 check("calibration: loaded" in out and "seq 1" in out and "stopped by SIGINT" in out,
       "restart loads the saved calibration; SIGINT stops it: " + " | ".join(out.splitlines()[:3]))
+
+# --- console sharing the link's port: replies and frames on one pseudo-terminal -------------
+spec = importlib.util.spec_from_file_location("listen", LISTEN_PY)
+listen_mod = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(listen_mod)
+pb2 = listen_mod.load_pb2()
+proc = subprocess.Popen([EDGEFUSED, "--set", "link.tcp=false", "--set", "console.serial=link",
+                         "--set", "console.echo=false", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
+                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK)
+link_dev = None
+end = time.monotonic() + 10
+while time.monotonic() < end and link_dev is None:
+    line = proc.stdout.readline()
+    if line.startswith("link: "):
+        link_dev = line.split(": ", 1)[1].strip()
+shared = open_raw(link_dev)
+os.write(shared, b"scan start\r")
+time.sleep(0.3)
+os.write(shared, b"localize\r")
+data = b""
+end = time.monotonic() + 1.5
+while time.monotonic() < end:
+    r, _, _ = select.select([shared], [], [], 0.1)
+    if r:
+        data += os.read(shared, 65536)
+proc.send_signal(signal.SIGTERM)
+proc.communicate(timeout=10)
+os.close(shared)
+stats = listen_mod.Stats()
+results = []
+for block in data.split(b"\0"):
+    if not block:
+        continue
+    payload = listen_mod.check_frame(block, stats)
+    if payload is not None:
+        m = pb2.Message()
+        m.ParseFromString(payload)
+        if m.WhichOneof("body") == "result":
+            results.append(m.result)
+check(data.count(b"OK\r\n") >= 2, "shared port: console replies arrive on the link's port")
+check(len(results) == 1 and len(results[0].objects) == 3,
+      "shared port: the result decodes between the console's text (%d results, %d bad blocks)"
+      % (len(results), stats.crc_errors + stats.cobs_errors))
 
 print("%d failures" % len(failures))
 sys.exit(1 if failures else 0)

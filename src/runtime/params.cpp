@@ -22,7 +22,7 @@ const ParamDef kParamDefs[kParamCount] = {
     {"link.udp_port", ParamType::kInt, 1, 65535, "5556", false, "UDP destination port"},
     {"link.heartbeat_ms", ParamType::kInt, 100, 60000, "1000", true, "heartbeat period"},
     {"console.serial", ParamType::kString, 0, kParamTextMax, "pty", false,
-     "console serial port: a device, 'pty' or '' (off)"},
+     "console serial port: a device, 'pty', 'link' (share the link's port) or '' (off)"},
     {"console.baud", ParamType::kInt, 1200, 4000000, "115200", false, "console bit rate (8N1)"},
     {"console.echo", ParamType::kBool, 0, 1, "true", true, "echo typed characters (for picocom/screen)"},
     {"log.level", ParamType::kInt, 0, 4, "2", true, "0 error, 1 warn, 2 info, 3 debug, 4 trace"},

@@ -76,15 +76,6 @@ void close_port(Port& p) {
   p.fd = -1;
 }
 
-class FdWriter : public runtime::ConsoleWriter {
- public:
-  int fd = -1;
-  void write(const char* s, size_t n) override {
-    // A terminal that stopped reading must not stall the pipeline: wait at most 5 ms, then drop.
-    if (fd >= 0) hal::write_all(fd, s, n, 5);
-  }
-};
-
 // Sends every frame to the link's serial port, the TCP clients and the UDP destination.
 class LinkFanout : public runtime::LinkSink {
  public:
@@ -104,6 +95,19 @@ class LinkFanout : public runtime::LinkSink {
     }
     if (tcp != nullptr) tcp->broadcast(frame, len);
     if (udp != nullptr) udp->send(frame, len);
+  }
+};
+
+class FdWriter : public runtime::ConsoleWriter {
+ public:
+  int fd = -1;
+  LinkFanout* link = nullptr;  // set when the console shares the link's port
+  void write(const char* s, size_t n) override {
+    // On a shared port the next frame starts with a 0x00, so a receiver drops this text as one
+    // bad block and decodes the frame after it.
+    if (link != nullptr) link->serial_resync = true;
+    // A terminal that stopped reading must not stall the pipeline: wait at most 5 ms, then drop.
+    if (fd >= 0) hal::write_all(fd, s, n, 5);
   }
 };
 
@@ -184,9 +188,15 @@ int main(int argc, char** argv) {
     }
   const std::string console_spec = g_params.get_text(runtime::kConsoleSerial);
   const std::string link_spec = g_params.get_text(runtime::kLinkSerial);
+  // console.serial = "link" shares the link's port; naming the same device twice is a mistake.
+  const bool shared = console_spec == "link";
+  if (shared && link_spec.empty()) {
+    std::fprintf(stderr, "edgefused: console.serial = link, but link.serial is off\n");
+    return 1;
+  }
   if (!console_spec.empty() && console_spec != "pty" && console_spec == link_spec) {
-    std::fprintf(stderr, "edgefused: console.serial and link.serial are both %s; sharing one port is not supported\n",
-                 console_spec.c_str());
+    std::fprintf(stderr, "edgefused: console.serial and link.serial are both %s; write console.serial = \"link\" "
+                 "to share the link's port\n", console_spec.c_str());
     return 1;
   }
   std::printf("edgefused %s: board %s, config %s\n", PROJECT_VERSION, board.c_str(),
@@ -208,12 +218,14 @@ int main(int argc, char** argv) {
 
   // Ports.
   Port console_port, link_port;
-  if (!open_port("console", console_spec, g_params.get_int(runtime::kConsoleBaud), console_port, err) ||
+  if (!open_port("console", shared ? "" : console_spec, g_params.get_int(runtime::kConsoleBaud), console_port,
+                 err) ||
       !open_port("link", link_spec, g_params.get_int(runtime::kLinkBaud), link_port, err)) {
     std::fprintf(stderr, "edgefused: %s\n", err.c_str());
     return 1;
   }
   if (console_port.fd >= 0) std::printf("console: %s\n", console_port.name.c_str());
+  if (shared) std::printf("console: %s (shared with the link)\n", link_port.name.c_str());
   if (link_port.fd >= 0) std::printf("link: %s\n", link_port.name.c_str());
   if (g_params.get_bool(runtime::kLinkTcp)) {
     if (!g_tcp.listen(g_params.get_text(runtime::kLinkTcpBind), g_params.get_int(runtime::kLinkTcpPort), err)) {
@@ -232,7 +244,8 @@ int main(int argc, char** argv) {
     g_link.udp = &g_udp;
   }
   g_link.serial_fd = link_port.fd;
-  g_console_out.fd = console_port.fd;
+  g_console_out.fd = shared ? link_port.fd : console_port.fd;
+  g_console_out.link = shared ? &g_link : nullptr;
   static runtime::Console console(rt, g_params, g_console_out, "edgefused " PROJECT_VERSION);
   console.set_echo(g_params.get_bool(runtime::kConsoleEcho));
 
@@ -264,8 +277,9 @@ int main(int argc, char** argv) {
       if (r > 0) console.feed(g_buf, size_t(r));
     }
     if (link_port.fd >= 0) {
-      while (::read(link_port.fd, g_buf, sizeof(g_buf)) > 0) {
-      }  // the link is output only; drain what a terminal sends
+      ssize_t r;
+      while ((r = ::read(link_port.fd, g_buf, sizeof(g_buf))) > 0)
+        if (shared) console.feed(g_buf, size_t(r));  // otherwise the link is output only: drain
     }
     g_tcp.service();
     const uint64_t t = now_us();
