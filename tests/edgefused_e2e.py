@@ -94,6 +94,19 @@ bad = subprocess.run([EDGEFUSED, "--config", cfg], capture_output=True, text=Tru
 check(bad.returncode == 1 and "localize.min_score = 3 is out of range [0, 1]" in bad.stderr and cfg in bad.stderr,
       "bad config value refused: " + bad.stderr.strip())
 
+ok = subprocess.run([EDGEFUSED, "--board", "am335x", "--help"], capture_output=True, text=True)
+check(ok.returncode == 0 and "--set KEY=VALUE" in ok.stdout, "edgefused --help")
+bad = subprocess.run([EDGEFUSED, "--board", "nosuch"], capture_output=True, text=True, cwd=WORK)
+check(bad.returncode == 1 and "unknown board 'nosuch'" in bad.stderr, "unknown board refused: " + bad.stderr.strip())
+# Board data: am335x's [tsdf] defaults (4 mm voxels) reach the parameters; --set still wins.
+p = subprocess.Popen([EDGEFUSED, "--board", "am335x", "--set", "link.tcp=false", "--set", "link.serial=",
+                      "--set", "console.serial=", "--set", "tsdf.trunc_m=0.02"],
+                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK)
+first = p.stdout.readline()
+p.send_signal(signal.SIGTERM)
+p.communicate(timeout=10)
+check("board am335x" in first and "voxel 0.004 m, truncation 0.02 m" in first, "board defaults + --set: " + first.strip())
+
 # --- a run -----------------------------------------------------------------------------------
 probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
 probe.bind(("127.0.0.1", 0))

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <string>
 
+#include "board_defaults.hpp"
 #include "edgefuse/hal/link/serial_port.hpp"
 #include "edgefuse/hal/link/sockets.hpp"
 #include "edgefuse/hal/runtime/calib_file_store.hpp"
@@ -177,6 +178,22 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "\n");
     return 1;
   }
+  // Board data first (its [tsdf] defaults), then the config file, then --set: later wins.
+  {
+    cli::BoardDefaults bd;
+    if (!cli::read_board_defaults(board, bd, err)) {
+      std::fprintf(stderr, "edgefused: %s\n", err.c_str());
+      return 1;
+    }
+    char text[32], e[200];
+    std::snprintf(text, sizeof(text), "%.9g", double(bd.voxel_m));
+    const bool ok = g_params.set(runtime::kTsdfVoxelM, text, e, sizeof(e));
+    std::snprintf(text, sizeof(text), "%.9g", double(bd.trunc_m));
+    if (!ok || !g_params.set(runtime::kTsdfTruncM, text, e, sizeof(e))) {
+      std::fprintf(stderr, "edgefused: board/%s/board.toml: %s\n", board.c_str(), e);
+      return 1;
+    }
+  }
   if (!config.empty() && !hal::load_config_toml(config, g_params, err)) {
     std::fprintf(stderr, "edgefused: %s\n", err.c_str());
     return 1;
@@ -199,8 +216,9 @@ int main(int argc, char** argv) {
                  "to share the link's port\n", console_spec.c_str());
     return 1;
   }
-  std::printf("edgefused %s: board %s, config %s\n", PROJECT_VERSION, board.c_str(),
-              config.empty() ? "(defaults)" : config.c_str());
+  std::printf("edgefused %s: board %s, config %s, voxel %g m, truncation %g m\n", PROJECT_VERSION, board.c_str(),
+              config.empty() ? "(defaults)" : config.c_str(), g_params.get_number(runtime::kTsdfVoxelM),
+              g_params.get_number(runtime::kTsdfTruncM));
   if (g_params.get_text(runtime::kSensorsReplay)[0] != '\0')
     std::printf("warning: sensors.replay=%s is accepted but not used yet: host-sim runs the simulated pose source\n",
                 g_params.get_text(runtime::kSensorsReplay));
