@@ -152,11 +152,15 @@ hb = subprocess.Popen([EDGEFUSE, "listen", "--serial", info["link"], "--timeout-
                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 udp = subprocess.Popen([EDGEFUSE, "listen", "--udp", str(udp_port), "--csv", "--count", "1", "--timeout-s", "10"],
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-time.sleep(1.0)  # let the TCP clients connect (protoc runs first in listen.py)
-for _ in range(2):
+# Localise until every listener has what it waits for: they connect at their own pace (listen.py
+# runs protoc first), so a fixed pause would be flaky on a loaded machine.
+localized = 0
+end = time.monotonic() + 30
+while time.monotonic() < end and any(x.poll() is None for x in (listen, listen_py, udp, hb)):
     r = command(con, "localize")
-    check(r.endswith("OK\r\n"), "console: localize")
-    time.sleep(0.4)
+    localized += r.endswith("OK\r\n")
+    time.sleep(0.3)
+check(localized >= 2, "console: localize (%d times)" % localized)
 out, err = listen.communicate(timeout=20)
 check(listen.returncode == 0, "edgefuse listen --tcp got 2 results: " + err.strip())
 check_csv(out, "edgefuse listen")

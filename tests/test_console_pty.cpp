@@ -106,7 +106,7 @@ struct Session {
     std::string got;
     got.swap(pending);
     char buf[4096];
-    for (int spins = 0; spins < 400; ++spins) {
+    for (int spins = 0; spins < 2000; ++spins) {  // up to ~10 s on a loaded machine
       pollfd p[2] = {{pty.controller, POLLIN, 0}, {term, POLLIN, 0}};
       ::poll(p, 2, 5);
       ssize_t n = ::read(pty.controller, buf, sizeof(buf));
