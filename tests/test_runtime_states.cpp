@@ -165,6 +165,21 @@ TEST(RuntimeStates, StillPeriodTriggersOneLocalisation) {
   CHECK_EQUAL(2, r.link.count(edgefuse_link_Message_result_tag));
 }
 
+TEST(RuntimeStates, CalibSetNamesSensorsFlangeAndBin) {
+  static Rig r;
+  const float tq[7] = {0.1f, 0.2f, 0.3f, 0, 0, 0, 1};
+  CHECK(r.rt.calib_set("xtion", tq).code == ConsoleError::kOk);
+  CHECK(r.rt.calib_set("flange", tq).code == ConsoleError::kOk);
+  CHECK(r.rt.calib_set("bin", tq).code == ConsoleError::kOk);
+  CHECK(r.rt.calib_set("nosuch", tq).code == ConsoleError::kNotFound);
+  const CalibrationData& d = r.rt.calibration();
+  CHECK(calib_find_pair(d, "rig", "xtion") != nullptr);
+  CHECK_EQUAL(0.2f, d.T_flange_rig.tq[1]);
+  CHECK_EQUAL(0.3f, d.T_world_bin.tq[2]);
+  CHECK(r.rt.calib_reset().code == ConsoleError::kOk);
+  CHECK_EQUAL(0, r.rt.calibration().pair_count);
+}
+
 TEST(RuntimeStates, SteadyStateDoesNotAllocate) {
   static Rig r;
   r.link.record = false;

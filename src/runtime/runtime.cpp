@@ -154,14 +154,23 @@ CmdResult Runtime::calib_show(ConsoleWriter& out) {
 }
 
 CmdResult Runtime::calib_set(const char* sensor, const float tq[7]) {
+  CalibPose p;
+  std::memcpy(p.tq, tq, sizeof(p.tq));
+  // Two names that are not sensors: the rig on the flange (hand-eye) and the bin in the world.
+  if (!std::strcmp(sensor, "flange")) {
+    calib_.T_flange_rig = p;
+    return CmdResult::ok();
+  }
+  if (!std::strcmp(sensor, "bin")) {
+    calib_.T_world_bin = p;
+    return CmdResult::ok();
+  }
   bool known = false;
   for (int i = 0; i < pipeline_.device_count(); ++i) known |= !std::strcmp(pipeline_.device_name(i), sensor);
   if (!known) {
-    std::snprintf(text_, sizeof(text_), "no sensor '%.40s' on this rig (status lists them)", sensor);
+    std::snprintf(text_, sizeof(text_), "no sensor '%.40s' on this rig (status lists them; or flange, bin)", sensor);
     return CmdResult::error(ConsoleError::kNotFound, text_);
   }
-  CalibPose p;
-  std::memcpy(p.tq, tq, sizeof(p.tq));
   if (!calib_set_pair(calib_, "rig", sensor, p))
     return CmdResult::error(ConsoleError::kFailed, "calibration table full");
   return CmdResult::ok();

@@ -50,7 +50,8 @@ class ConsoleService {
   //! Starts the rigid-pair calibration of sensor `to` against the map of sensor `from`.
   virtual CmdResult calib_fuse(const char* from, const char* to, ConsoleWriter& out) = 0;
   virtual CmdResult calib_show(ConsoleWriter& out) = 0;
-  //! Sets the mounting of `sensor` (T_rig_sensor): translation (m) and unit quaternion x y z w.
+  //! Sets the mounting of `sensor` (T_rig_sensor), or with `sensor` "flange" the hand-eye pose
+  //! T_flange_rig, with "bin" the bin pose T_world_bin: translation (m), unit quaternion x y z w.
   virtual CmdResult calib_set(const char* sensor, const float tq[7]) = 0;
   virtual CmdResult calib_save() = 0;
   virtual CmdResult calib_load() = 0;
