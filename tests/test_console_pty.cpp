@@ -45,6 +45,12 @@ class FakeService : public ConsoleService {
     if (!std::strcmp(sensor, "nosuch")) return CmdResult::error(ConsoleError::kNotFound, "no sensor 'nosuch'");
     return rec(b);
   }
+  CmdResult calib_intrinsics(const char* sensor, const float k[4]) override {
+    char b[128];
+    std::snprintf(b, sizeof(b), "calib_intrinsics %s %.1f %.1f %.1f %.1f", sensor, double(k[0]), double(k[1]),
+                  double(k[2]), double(k[3]));
+    return rec(b);
+  }
   CmdResult calib_save() override { return rec("calib_save"); }
   CmdResult calib_load() override { return rec("calib_load"); }
   CmdResult calib_reset() override { return rec("calib_reset"); }
@@ -174,6 +180,7 @@ TEST(ConsolePty, ScriptedSession) {
   CHECK(ends_ok(s.cmd("calib set tof 0.1 0 0.02 0 0 0 1")));
   CHECK(ends_ok(s.cmd("calib   fuse   xtion tof")));  // extra blanks are fine
   CHECK(ends_ok(s.cmd("calib show")));
+  CHECK(ends_ok(s.cmd("calib intrinsics tof 211.5 211 160 120.5")));
   CHECK(ends_ok(s.cmd("calib save")));
   CHECK(ends_ok(s.cmd("calib load")));
   CHECK(ends_ok(s.cmd("calib reset")));
@@ -193,7 +200,7 @@ TEST(ConsolePty, ScriptedSession) {
 
   const std::vector<std::string> want = {
       "status", "calib_set tof 0.100 0.000 0.020 0.000 0.000 0.000 1.000", "calib_fuse xtion tof", "calib_show",
-      "calib_save", "calib_load", "calib_reset", "scan start", "scan stop", "map_reset", "localize", "model_list",
+      "calib_intrinsics tof 211.5 211.0 160.0 120.5", "calib_save", "calib_load", "calib_reset", "scan start", "scan stop", "map_reset", "localize", "model_list",
       "log 3", "param localize.min_score"};
   CHECK_EQUAL(want.size(), s.service.calls.size());
   for (size_t i = 0; i < want.size(); ++i) STRCMP_EQUAL(want[i].c_str(), s.service.calls[i].c_str());
@@ -204,7 +211,7 @@ TEST(ConsolePty, WrongArgumentsGiveErr) {
   CHECK(ends_err(s.cmd("frobnicate"), 1));
   std::string usage = s.cmd("calib");
   CHECK(ends_err(usage, 2));
-  CHECK_TEXT(usage.find("usage: calib <fuse|show|set|save|load|reset>") != std::string::npos, usage.c_str());
+  CHECK_TEXT(usage.find("usage: calib <fuse|show|set|intrinsics|save|load|reset>") != std::string::npos, usage.c_str());
   CHECK(ends_err(s.cmd("calib explode"), 2));
   CHECK(ends_err(s.cmd("calib set tof 1 2 3"), 2));
   CHECK(ends_err(s.cmd("calib set tof a b c d e f g"), 2));
@@ -212,6 +219,8 @@ TEST(ConsolePty, WrongArgumentsGiveErr) {
   CHECK(ends_err(s.cmd("calib set tof 99 0 0 0 0 0 1"), 4));  // 99 m
   CHECK(ends_err(s.cmd("calib set nosuch 0 0 0 0 0 0 1"), 7));
   CHECK(ends_err(s.cmd("calib fuse xtion xtion"), 2));
+  CHECK(ends_err(s.cmd("calib intrinsics tof 0 211 160 120"), 4));
+  CHECK(ends_err(s.cmd("calib intrinsics tof 211 211 160"), 2));
   CHECK(ends_err(s.cmd("scan sideways"), 2));
   CHECK(ends_err(s.cmd("version extra"), 2));
   CHECK(ends_err(s.cmd("log loud"), 2));

@@ -172,6 +172,12 @@ TEST(RuntimeStates, CalibSetNamesSensorsFlangeAndBin) {
   CHECK(r.rt.calib_set("flange", tq).code == ConsoleError::kOk);
   CHECK(r.rt.calib_set("bin", tq).code == ConsoleError::kOk);
   CHECK(r.rt.calib_set("nosuch", tq).code == ConsoleError::kNotFound);
+  const float k[4] = {500, 501, 320, 240};
+  CHECK(r.rt.calib_intrinsics("xtion", k).code == ConsoleError::kOk);
+  CHECK(r.rt.calib_intrinsics("xtion", k).code == ConsoleError::kOk);  // replaces, does not add
+  CHECK(r.rt.calib_intrinsics("nosuch", k).code == ConsoleError::kNotFound);
+  CHECK_EQUAL(1, r.rt.calibration().intrinsic_count);
+  CHECK_EQUAL(501.0f, r.rt.calibration().intrinsics[0].fy);
   const CalibrationData& d = r.rt.calibration();
   CHECK(calib_find_pair(d, "rig", "xtion") != nullptr);
   CHECK_EQUAL(0.2f, d.T_flange_rig.tq[1]);

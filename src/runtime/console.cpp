@@ -74,6 +74,18 @@ CmdResult cmd_calib_set(Console&, ConsoleService& s, ParamStore&, ConsoleWriter&
     return CmdResult::error(ConsoleError::kOutOfRange, "quaternion is not unit length (|q| - 1 > 1e-3)");
   return s.calib_set(argv[0], tq);
 }
+CmdResult cmd_calib_intrinsics(Console&, ConsoleService& s, ParamStore&, ConsoleWriter&, const char*, int,
+                               char** argv) {
+  float k[4];
+  for (int i = 0; i < 4; ++i)
+    if (!parse_float(argv[1 + i], k[i]))
+      return CmdResult::error(ConsoleError::kBadArguments, "fx fy cx cy must be numbers");
+  // Focal lengths and principal point of any sensor here lie well inside 1..20000 pixels.
+  for (int i = 0; i < 4; ++i)
+    if (k[i] < (i < 2 ? 1.0f : 0.0f) || k[i] > 20000.0f)
+      return CmdResult::error(ConsoleError::kOutOfRange, "fx fy in [1, 20000], cx cy in [0, 20000] pixels");
+  return s.calib_intrinsics(argv[0], k);
+}
 CmdResult cmd_calib_save(Console&, ConsoleService& s, ParamStore&, ConsoleWriter&, const char*, int, char**) {
   return s.calib_save();
 }
@@ -148,6 +160,7 @@ const Command kCommands[] = {
     {"calib", "fuse", 2, 2, cmd_calib_fuse, "calib fuse <from> <to>"},
     {"calib", "show", 0, 0, cmd_calib_show, "calib show"},
     {"calib", "set", 8, 8, cmd_calib_set, "calib set <sensor> <tx ty tz qx qy qz qw>"},
+    {"calib", "intrinsics", 5, 5, cmd_calib_intrinsics, "calib intrinsics <sensor> <fx fy cx cy>"},
     {"calib", "save", 0, 0, cmd_calib_save, "calib save"},
     {"calib", "load", 0, 0, cmd_calib_load, "calib load"},
     {"calib", "reset", 0, 0, cmd_calib_reset, "calib reset"},

@@ -176,6 +176,30 @@ CmdResult Runtime::calib_set(const char* sensor, const float tq[7]) {
   return CmdResult::ok();
 }
 
+CmdResult Runtime::calib_intrinsics(const char* sensor, const float k[4]) {
+  bool known = false;
+  for (int i = 0; i < pipeline_.device_count(); ++i) known |= !std::strcmp(pipeline_.device_name(i), sensor);
+  if (!known || std::strlen(sensor) > kSensorNameMax) {
+    std::snprintf(text_, sizeof(text_), "no sensor '%.40s' on this rig (status lists them)", sensor);
+    return CmdResult::error(ConsoleError::kNotFound, text_);
+  }
+  IntrinsicOverride* o = nullptr;
+  for (int i = 0; i < calib_.intrinsic_count; ++i)
+    if (!std::strcmp(calib_.intrinsics[i].sensor, sensor)) o = &calib_.intrinsics[i];
+  if (o == nullptr) {
+    if (calib_.intrinsic_count >= kCalibIntrinsicsMax)
+      return CmdResult::error(ConsoleError::kFailed, "intrinsics table full");
+    o = &calib_.intrinsics[calib_.intrinsic_count++];
+    *o = IntrinsicOverride{};
+    std::memcpy(o->sensor, sensor, std::strlen(sensor) + 1);
+  }
+  o->fx = k[0];
+  o->fy = k[1];
+  o->cx = k[2];
+  o->cy = k[3];
+  return CmdResult::ok();
+}
+
 CmdResult Runtime::calib_save() {
   if (!storage_.save(calib_, text_, sizeof(text_))) return CmdResult::error(ConsoleError::kStorage, text_);
   return CmdResult::ok();

@@ -53,6 +53,8 @@ class ConsoleService {
   //! Sets the mounting of `sensor` (T_rig_sensor), or with `sensor` "flange" the hand-eye pose
   //! T_flange_rig, with "bin" the bin pose T_world_bin: translation (m), unit quaternion x y z w.
   virtual CmdResult calib_set(const char* sensor, const float tq[7]) = 0;
+  //! Overrides the pinhole intrinsics of `sensor`: fx fy cx cy in pixels (k[0..3]).
+  virtual CmdResult calib_intrinsics(const char* sensor, const float k[4]) = 0;
   virtual CmdResult calib_save() = 0;
   virtual CmdResult calib_load() = 0;
   virtual CmdResult calib_reset() = 0;

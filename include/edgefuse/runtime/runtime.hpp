@@ -62,6 +62,7 @@ class Runtime : public ConsoleService {
   CmdResult calib_fuse(const char* from, const char* to, ConsoleWriter& out) override;
   CmdResult calib_show(ConsoleWriter& out) override;
   CmdResult calib_set(const char* sensor, const float tq[7]) override;
+  CmdResult calib_intrinsics(const char* sensor, const float k[4]) override;
   CmdResult calib_save() override;
   CmdResult calib_load() override;
   CmdResult calib_reset() override;
