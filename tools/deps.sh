@@ -9,6 +9,9 @@ PACKAGES=(
   libeigen3-dev libcpputest-dev cpputest libpng-dev libtomlplusplus-dev liblzf-dev
   g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
   python3 python3-numpy
+  # pose link (issue 7, feat/link): nanopb generator + runtime, protoc and Python protobuf for
+  # tools/listen.py and its tests
+  nanopb libnanopb-dev protobuf-compiler python3-protobuf
 )
 
 missing=()

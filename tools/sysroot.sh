@@ -22,7 +22,9 @@ esac
 
 # Library packages are listed explicitly with their -dev packages: `apt-get download` does not
 # follow dependencies. libtomlplusplus-dev is only for its headers (used header-only).
-PACKAGES=(libcpputest-dev libpng-dev libpng16-16 zlib1g-dev zlib1g liblzf-dev liblzf1 libtomlplusplus-dev)
+PACKAGES=(libcpputest-dev libpng-dev libpng16-16 zlib1g-dev zlib1g liblzf-dev liblzf1 libtomlplusplus-dev
+  # pose link (issue 7, feat/link): the nanopb runtime (static library; the generator runs on the host)
+  libnanopb-dev)
 # Bump when the layout produced below changes, so that old sysroots are rebuilt.
 LAYOUT=2
 stamp_text="edgefuse sysroot layout=$LAYOUT arch=$arch packages=${PACKAGES[*]}"

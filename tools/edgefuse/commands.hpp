@@ -11,5 +11,7 @@ int cmd_eval(int argc, char** argv);
 // multi-sensor fusion (issue 4)
 int cmd_calibrate(int argc, char** argv);
 int cmd_fuse_rig(int argc, char** argv);  //!< `fuse RIGSET --sensors ...` (called by cmd_fuse)
+// pose link (issue 7, feat/link)
+int cmd_listen(int argc, char** argv);
 
 }  // namespace edgefuse::cli

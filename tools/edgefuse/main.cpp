@@ -21,6 +21,8 @@ const Command kCommands[] = {
     {"eval", edgefuse::cli::cmd_eval, "trajectory accuracy: ATE (aligned) / RPE against ground truth, as TUM's tools"},
     // multi-sensor fusion (issue 4)
     {"calibrate", edgefuse::cli::cmd_calibrate, "find the mounting T_A_B of two rigidly mounted sensors from the data"},
+    // pose link (issue 7, feat/link)
+    {"listen", edgefuse::cli::cmd_listen, "decode and print the pose link (serial, TCP, UDP or a captured file)"},
 };
 
 void usage(std::FILE* out) {

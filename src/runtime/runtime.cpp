@@ -1,0 +1,267 @@
+#include "edgefuse/runtime/runtime.hpp"
+
+#include <cstdio>
+#include <cstring>
+
+namespace edgefuse::runtime {
+
+const char* to_string(RuntimeState s) {
+  switch (s) {
+    case RuntimeState::kIdle: return "IDLE";
+    case RuntimeState::kMapping: return "MAPPING";
+    case RuntimeState::kLocalize: return "LOCALIZE";
+    case RuntimeState::kReport: return "REPORT";
+  }
+  return "?";
+}
+
+namespace {
+
+edgefuse_link_RuntimeState wire_state(RuntimeState s) {
+  switch (s) {
+    case RuntimeState::kIdle: return edgefuse_link_RuntimeState_STATE_IDLE;
+    case RuntimeState::kMapping: return edgefuse_link_RuntimeState_STATE_MAPPING;
+    case RuntimeState::kLocalize: return edgefuse_link_RuntimeState_STATE_LOCALIZE;
+    case RuntimeState::kReport: return edgefuse_link_RuntimeState_STATE_REPORT;
+  }
+  return edgefuse_link_RuntimeState_STATE_ERROR;
+}
+
+const char* tracking_text(edgefuse_link_TrackingState t) {
+  static const char* const k[] = {"off", "ok", "degraded", "lost"};
+  return int(t) >= 0 && int(t) < 4 ? k[t] : "?";
+}
+
+void print_pose(ConsoleWriter& out, const char* what, const CalibPose& p) {
+  out.line("%s: t %.4f %.4f %.4f q %.5f %.5f %.5f %.5f", what, double(p.tq[0]), double(p.tq[1]), double(p.tq[2]),
+           double(p.tq[3]), double(p.tq[4]), double(p.tq[5]), double(p.tq[6]));
+}
+
+}  // namespace
+
+void Runtime::send(const link::Message& m) {
+  size_t n = 0;
+  const uint8_t* f = writer_.encode(m, n);
+  if (f != nullptr) link_.send(f, n);
+}
+
+void Runtime::send_heartbeat(uint64_t now_us) {
+  msg_ = link::make_heartbeat(heartbeat_seq_++, now_us);
+  const PipelineStats st = pipeline_.stats();
+  link::Heartbeat& h = msg_.body.heartbeat;
+  h.state = wire_state(state_);
+  h.tracking = st.tracking;
+  h.fps = st.fps;
+  h.frames = st.frames;
+  h.drops = st.drops;
+  h.results = result_seq_;
+  h.uptime_s = uint32_t((now_us - start_us_) / 1000000u);
+  send(msg_);
+}
+
+bool Runtime::begin_localize(uint64_t now_us, const char** why) {
+  if (!pipeline_.start_localization(now_us, why)) return false;
+  state_ = RuntimeState::kLocalize;
+  return true;
+}
+
+void Runtime::tick(uint64_t now_us) {
+  if (start_us_ == 0) {
+    start_us_ = now_us;
+    next_heartbeat_us_ = now_us;
+  }
+  now_us_ = now_us;
+  pipeline_.step(now_us);
+
+  switch (state_) {
+    case RuntimeState::kIdle: break;
+    case RuntimeState::kMapping: {
+      // Still-period trigger: once per still period; re-armed when the rig moves again.
+      const PipelineStats st = pipeline_.stats();
+      const double period_s = params_.get_number(kLocalizeStillPeriodS);
+      if (st.still_since_us == 0) still_armed_ = true;
+      if (period_s > 0 && still_armed_ && st.still_since_us != 0 &&
+          now_us - st.still_since_us >= uint64_t(period_s * 1e6) && !pipeline_.map_empty()) {
+        const char* why = "";
+        still_armed_ = false;
+        begin_localize(now_us, &why);
+      }
+      break;
+    }
+    case RuntimeState::kLocalize:
+      msg_ = link::make_result(0, now_us);
+      if (pipeline_.poll_localization(msg_.body.result)) state_ = RuntimeState::kReport;
+      break;
+    case RuntimeState::kReport: {
+      // Drop objects below the score threshold, number the result, send it.
+      link::LocalizationResult& r = msg_.body.result;
+      const float min_score = float(params_.get_number(kLocalizeMinScore));
+      pb_size_t kept = 0;
+      for (pb_size_t i = 0; i < r.objects_count; ++i)
+        if (r.objects[i].score >= min_score) r.objects[kept++] = r.objects[i];
+      r.objects_count = kept;
+      if (kept == 0 && r.status == edgefuse_link_ResultStatus_RESULT_OK)
+        r.status = edgefuse_link_ResultStatus_RESULT_NO_OBJECTS;
+      r.seq = result_seq_++;
+      msg_.which_body = edgefuse_link_Message_result_tag;
+      for (int i = 0; i < params_.get_int(kReportRepeat); ++i) send(msg_);
+      state_ = scanning_ ? RuntimeState::kMapping : RuntimeState::kIdle;
+      if (!scanning_) pipeline_.stop_mapping();
+      break;
+    }
+  }
+
+  if (now_us >= next_heartbeat_us_) {
+    send_heartbeat(now_us);
+    next_heartbeat_us_ = now_us + uint64_t(params_.get_int(kLinkHeartbeatMs)) * 1000u;
+  }
+}
+
+CmdResult Runtime::status(ConsoleWriter& out) {
+  const PipelineStats st = pipeline_.stats();
+  out.line("state %s%s", to_string(state_), scanning_ ? " (scanning)" : "");
+  out.line("fps %.1f frames %u drops %u", double(st.fps), unsigned(st.frames), unsigned(st.drops));
+  out.line("tracking %s", tracking_text(st.tracking));
+  out.line("results %u heartbeats %u map %s", unsigned(result_seq_), unsigned(heartbeat_seq_),
+           pipeline_.map_empty() ? "empty" : "filled");
+  for (int i = 0; i < pipeline_.device_count(); ++i)
+    out.line("device %s %s", pipeline_.device_name(i), pipeline_.device_state(i));
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::calib_fuse(const char* from, const char* to, ConsoleWriter& out) {
+  const char* why = "";
+  if (!pipeline_.start_pair_calibration(from, to, &why)) return CmdResult::error(ConsoleError::kFailed, why);
+  out.line("calibrating %s against %s: move the rig; the result shows in calib show", to, from);
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::calib_show(ConsoleWriter& out) {
+  char what[64];
+  if (calib_.pair_count == 0) out.line("no sensor pairs calibrated");
+  for (int i = 0; i < calib_.pair_count; ++i) {
+    std::snprintf(what, sizeof(what), "T_%s_%s", calib_.pairs[i].from, calib_.pairs[i].to);
+    print_pose(out, what, calib_.pairs[i].T_from_to);
+  }
+  for (int i = 0; i < calib_.intrinsic_count; ++i) {
+    const IntrinsicOverride& k = calib_.intrinsics[i];
+    out.line("intrinsics %s: fx %.3f fy %.3f cx %.3f cy %.3f", k.sensor, double(k.fx), double(k.fy), double(k.cx),
+             double(k.cy));
+  }
+  print_pose(out, "T_flange_rig (hand-eye)", calib_.T_flange_rig);
+  print_pose(out, "T_world_bin", calib_.T_world_bin);
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::calib_set(const char* sensor, const float tq[7]) {
+  CalibPose p;
+  std::memcpy(p.tq, tq, sizeof(p.tq));
+  // Two names that are not sensors: the rig on the flange (hand-eye) and the bin in the world.
+  if (!std::strcmp(sensor, "flange")) {
+    calib_.T_flange_rig = p;
+    return CmdResult::ok();
+  }
+  if (!std::strcmp(sensor, "bin")) {
+    calib_.T_world_bin = p;
+    return CmdResult::ok();
+  }
+  bool known = false;
+  for (int i = 0; i < pipeline_.device_count(); ++i) known |= !std::strcmp(pipeline_.device_name(i), sensor);
+  if (!known) {
+    std::snprintf(text_, sizeof(text_), "no sensor '%.40s' on this rig (status lists them; or flange, bin)", sensor);
+    return CmdResult::error(ConsoleError::kNotFound, text_);
+  }
+  if (!calib_set_pair(calib_, "rig", sensor, p))
+    return CmdResult::error(ConsoleError::kFailed, "calibration table full");
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::calib_intrinsics(const char* sensor, const float k[4]) {
+  bool known = false;
+  for (int i = 0; i < pipeline_.device_count(); ++i) known |= !std::strcmp(pipeline_.device_name(i), sensor);
+  if (!known || std::strlen(sensor) > kSensorNameMax) {
+    std::snprintf(text_, sizeof(text_), "no sensor '%.40s' on this rig (status lists them)", sensor);
+    return CmdResult::error(ConsoleError::kNotFound, text_);
+  }
+  IntrinsicOverride* o = nullptr;
+  for (int i = 0; i < calib_.intrinsic_count; ++i)
+    if (!std::strcmp(calib_.intrinsics[i].sensor, sensor)) o = &calib_.intrinsics[i];
+  if (o == nullptr) {
+    if (calib_.intrinsic_count >= kCalibIntrinsicsMax)
+      return CmdResult::error(ConsoleError::kFailed, "intrinsics table full");
+    o = &calib_.intrinsics[calib_.intrinsic_count++];
+    *o = IntrinsicOverride{};
+    std::memcpy(o->sensor, sensor, std::strlen(sensor) + 1);
+  }
+  o->fx = k[0];
+  o->fy = k[1];
+  o->cx = k[2];
+  o->cy = k[3];
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::calib_save() {
+  if (!storage_.save(calib_, text_, sizeof(text_))) return CmdResult::error(ConsoleError::kStorage, text_);
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::calib_load() {
+  CalibrationData d;
+  if (!storage_.load(d, text_, sizeof(text_))) return CmdResult::error(ConsoleError::kStorage, text_);
+  calib_ = d;
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::calib_reset() {
+  calib_ = CalibrationData{};
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::scan(bool start) {
+  if (start) {
+    if (state_ == RuntimeState::kIdle) {
+      const char* why = "";
+      if (!pipeline_.start_mapping(&why)) return CmdResult::error(ConsoleError::kFailed, why);
+      state_ = RuntimeState::kMapping;
+    }
+    scanning_ = true;
+    return CmdResult::ok();
+  }
+  scanning_ = false;
+  if (state_ == RuntimeState::kMapping) {
+    pipeline_.stop_mapping();
+    state_ = RuntimeState::kIdle;
+  }
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::map_reset() {
+  if (state_ == RuntimeState::kLocalize || state_ == RuntimeState::kReport)
+    return CmdResult::error(ConsoleError::kWrongState, "localising: wait for the result");
+  pipeline_.reset_map();
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::localize() {
+  if (state_ == RuntimeState::kLocalize || state_ == RuntimeState::kReport)
+    return CmdResult::error(ConsoleError::kWrongState, "already localising");
+  if (pipeline_.map_empty()) return CmdResult::error(ConsoleError::kWrongState, "the map is empty (scan start first)");
+  const char* why = "";
+  if (!begin_localize(now_us_, &why)) return CmdResult::error(ConsoleError::kFailed, why);
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::model_list(ConsoleWriter& out) {
+  for (int i = 0; i < pipeline_.model_count(); ++i) out.line("%d %s", i + 1, pipeline_.model_name(i));
+  if (pipeline_.model_count() == 0) out.line("no models loaded");
+  return CmdResult::ok();
+}
+
+CmdResult Runtime::log_level(int) { return CmdResult::ok(); }  // the level lives in params (log.level)
+
+CmdResult Runtime::param_changed(int id) {
+  if (id == kLinkHeartbeatMs) next_heartbeat_us_ = now_us_;  // apply the new period at once
+  return CmdResult::ok();
+}
+
+}  // namespace edgefuse::runtime

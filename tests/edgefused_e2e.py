@@ -1,0 +1,270 @@
+#!/usr/bin/python3
+"""End-to-end on loopback: edgefused (host-sim, simulated pose source) is driven over its console
+pseudo-terminal; `edgefuse listen` and tools/listen.py receive the results over TCP and the
+heartbeats over the link pseudo-terminal; the poses must equal the simulated bin's; memory (VmData)
+stays flat over many localisation cycles; SIGTERM stops it cleanly; bad configuration values stop
+start-up with a message naming key, value and range.
+
+usage: edgefused_e2e.py EDGEFUSED EDGEFUSE LISTEN_PY WORKDIR [sanitized]
+"""
+import importlib.util
+import os
+import select
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import termios
+import time
+
+EDGEFUSED, EDGEFUSE, LISTEN_PY, WORK = sys.argv[1:5]
+# Under AddressSanitizer its own bookkeeping maps memory: the flat-memory check is skipped there.
+SANITIZED = len(sys.argv) > 5 and sys.argv[5] == "sanitized"
+# tools/edgefused/sim_pipeline.cpp: kSimObjects (id, t, q, score)
+TRUTH = {
+    1: ((0.412, -0.105, 0.031), (0.0, 0.0, 0.2588190, 0.9659258), 0.93),
+    2: ((0.475, 0.020, 0.045), (0.7071068, 0.0, 0.0, 0.7071068), 0.88),
+    3: ((0.390, 0.110, 0.025), (0.0, 0.0, 0.0, 1.0), 0.61),
+}
+failures = []
+
+
+def check(cond, what):
+    print(("ok   " if cond else "FAIL ") + what, flush=True)
+    if not cond:
+        failures.append(what)
+
+
+def open_raw(dev):
+    fd = os.open(dev, os.O_RDWR | os.O_NOCTTY)
+    a = termios.tcgetattr(fd)
+    a[0] = a[1] = a[3] = 0
+    a[2] = termios.CS8 | termios.CREAD | termios.CLOCAL
+    a[6][termios.VMIN] = 1
+    a[6][termios.VTIME] = 0
+    termios.tcsetattr(fd, termios.TCSANOW, a)
+    return fd
+
+
+def command(fd, line, timeout=5.0):
+    """Sends a console line, returns the reply up to and including OK / ERR."""
+    os.write(fd, (line + "\r").encode())
+    got = b""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        r, _, _ = select.select([fd], [], [], 0.1)
+        if r:
+            got += os.read(fd, 4096)
+            lines = got.decode(errors="replace").split("\r\n")
+            if any(l == "OK" or l.startswith("ERR ") for l in lines[:-1]):
+                return got.decode(errors="replace")
+    return got.decode(errors="replace")
+
+
+def vm_data_kib(pid):
+    with open("/proc/%d/status" % pid) as f:
+        for line in f:
+            if line.startswith("VmData:"):
+                return int(line.split()[1])
+    return -1
+
+
+def check_csv(text, who):
+    rows = [l.split(",") for l in text.strip().splitlines() if l]
+    check(len(rows) >= 3, "%s: %d CSV rows (3 objects per result)" % (who, len(rows)))
+    for r in rows:
+        oid = int(r[2])
+        t, q, score = TRUTH[oid]
+        v = [float(x) for x in r[3:11]]
+        ok = all(abs(a - b) < 1e-5 for a, b in zip(v, list(t) + list(q))) and abs(float(r[10]) - score) < 1e-4
+        check(ok, "%s: object %d pose matches the simulated bin" % (who, oid))
+
+
+shutil.rmtree(WORK, ignore_errors=True)  # a previous run's calibration slots
+os.makedirs(WORK, exist_ok=True)
+# --- bad configuration stops start-up with key, value and range ------------------------------
+bad = subprocess.run([EDGEFUSED, "--set", "link.tcp_port=70000"], capture_output=True, text=True, cwd=WORK)
+check(bad.returncode == 1 and "link.tcp_port = 70000 is out of range [0, 65535]" in bad.stderr,
+      "bad --set value refused: " + bad.stderr.strip())
+cfg = os.path.join(WORK, "bad.toml")
+with open(cfg, "w") as f:
+    f.write("[localize]\nmin_score = 3\n")
+bad = subprocess.run([EDGEFUSED, "--config", cfg], capture_output=True, text=True, cwd=WORK)
+check(bad.returncode == 1 and "localize.min_score = 3 is out of range [0, 1]" in bad.stderr and cfg in bad.stderr,
+      "bad config value refused: " + bad.stderr.strip())
+
+ok = subprocess.run([EDGEFUSED, "--board", "am335x", "--help"], capture_output=True, text=True)
+check(ok.returncode == 0 and "--set KEY=VALUE" in ok.stdout, "edgefused --help")
+bad = subprocess.run([EDGEFUSED, "--board", "nosuch"], capture_output=True, text=True, cwd=WORK)
+check(bad.returncode == 1 and "unknown board 'nosuch'" in bad.stderr, "unknown board refused: " + bad.stderr.strip())
+# Board data: am335x's [tsdf] defaults (4 mm voxels) reach the parameters; --set still wins.
+p = subprocess.Popen([EDGEFUSED, "--board", "am335x", "--set", "link.tcp=false", "--set", "link.serial=",
+                      "--set", "console.serial=", "--set", "tsdf.trunc_m=0.02"],
+                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK)
+first = p.stdout.readline()
+p.send_signal(signal.SIGTERM)
+p.communicate(timeout=10)
+check("board am335x" in first and "voxel 0.004 m, truncation 0.02 m" in first, "board defaults + --set: " + first.strip())
+
+# --- a run -----------------------------------------------------------------------------------
+probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+probe.bind(("127.0.0.1", 0))
+udp_port = probe.getsockname()[1]
+probe.close()
+log = open(os.path.join(WORK, "edgefused.log"), "w+")
+d = subprocess.Popen([EDGEFUSED, "--set", "link.tcp_port=0", "--set", "console.echo=false",
+                      "--set", "link.udp_host=127.0.0.1", "--set", "link.udp_port=%d" % udp_port,
+                      "--set", "link.heartbeat_ms=200", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
+                     stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
+info = {}
+end = time.monotonic() + 10
+while time.monotonic() < end and "ready" not in info:
+    time.sleep(0.05)
+    log.seek(0)
+    for line in log.read().splitlines():
+        k, _, v = line.partition(": ")
+        info[k] = v
+        if line == "ready":
+            info["ready"] = True
+check("ready" in info, "edgefused started: " + ", ".join("%s=%s" % kv for kv in info.items()))
+if "ready" not in info:
+    d.kill()
+    sys.exit(1)
+port = int(info["tcp"].rsplit(":", 1)[1])
+con = open_raw(info["console"])
+
+r = command(con, "version")
+check(r.endswith("OK\r\n") and "edgefused" in r, "console: version")
+r = command(con, "localize")
+check("ERR 5" in r, "console: localize before mapping is refused: " + r.strip())
+check(command(con, "scan start").endswith("OK\r\n"), "console: scan start")
+time.sleep(0.2)
+r = command(con, "status")
+check("state MAPPING" in r and "device xtion" in r, "console: status shows MAPPING and the devices")
+
+listen = subprocess.Popen([EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "2",
+                           "--timeout-s", "10"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+listen_py = subprocess.Popen(["/usr/bin/python3", LISTEN_PY, "--tcp", "127.0.0.1:%d" % port, "--csv",
+                              "--count", "1", "--timeout-s", "10"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+hb = subprocess.Popen([EDGEFUSE, "listen", "--serial", info["link"], "--timeout-s", "5", "--count", "1"],
+                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+udp = subprocess.Popen([EDGEFUSE, "listen", "--udp", str(udp_port), "--csv", "--count", "1", "--timeout-s", "10"],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+# Localise until every listener has what it waits for: they connect at their own pace (listen.py
+# runs protoc first), so a fixed pause would be flaky on a loaded machine.
+localized = 0
+end = time.monotonic() + 30
+while time.monotonic() < end and any(x.poll() is None for x in (listen, listen_py, udp, hb)):
+    r = command(con, "localize")
+    localized += r.endswith("OK\r\n")
+    time.sleep(0.3)
+check(localized >= 2, "console: localize (%d times)" % localized)
+out, err = listen.communicate(timeout=20)
+check(listen.returncode == 0, "edgefuse listen --tcp got 2 results: " + err.strip())
+check_csv(out, "edgefuse listen")
+out, err = listen_py.communicate(timeout=20)
+check(listen_py.returncode == 0, "listen.py --tcp got a result: " + err.strip())
+check_csv(out, "listen.py")
+out, err = udp.communicate(timeout=20)
+check(udp.returncode == 0, "edgefuse listen --udp got a result: " + err.strip())
+check_csv(out, "edgefuse listen --udp")
+out, err = hb.communicate(timeout=20)
+check("heartbeat seq=" in out and "protocol=1" in out, "edgefuse listen --serial sees heartbeats on the link pty")
+check(hb.returncode == 0 and "result seq=" in out, "edgefuse listen --serial sees a result on the link pty")
+
+# --- calibration through the console survives a restart ----------------------------------------
+check(command(con, "calib set tof 0.1 0.02 0 0 0 0 1").endswith("OK\r\n"), "console: calib set")
+check(command(con, "calib save").endswith("OK\r\n"), "console: calib save")
+check("ERR 6" in command(con, "calib fuse xtion tof"), "console: calib fuse reports it is not wired yet")
+
+# --- memory is flat over many cycles -------------------------------------------------------
+before = vm_data_kib(d.pid)
+for _ in range(30):
+    command(con, "localize")
+    time.sleep(0.15)
+    command(con, "status")
+    command(con, "param get")
+after = vm_data_kib(d.pid)
+check(SANITIZED or (before > 0 and after == before), "VmData flat over 30 localise cycles: %d -> %d KiB" % (before, after))
+
+# --- clean stop ------------------------------------------------------------------------------
+d.send_signal(signal.SIGTERM)
+rc = d.wait(timeout=10)
+log.seek(0)
+text = log.read()
+check(rc == 0 and "stopped by SIGTERM" in text, "SIGTERM stops it cleanly (exit %d)" % rc)
+os.close(con)
+
+# --- restart loads the saved calibration ---------------------------------------------------
+# ... under a fake systemd: READY=1, WATCHDOG=1 (WATCHDOG_USEC), STOPPING=1 on $NOTIFY_SOCKET.
+notify_path = os.path.join(WORK, "notify.sock")
+if os.path.exists(notify_path):
+    os.unlink(notify_path)
+notify = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+notify.bind(notify_path)
+env = dict(os.environ, NOTIFY_SOCKET=notify_path, WATCHDOG_USEC="200000")
+proc = subprocess.Popen([EDGEFUSED, "--set", "link.tcp=false", "--set", "console.serial=", "--set", "link.serial=",
+                         "--set", "calib.dir=" + os.path.join(WORK, "calib")],
+                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK, env=env)
+time.sleep(0.7)
+proc.send_signal(signal.SIGINT)
+out, _ = proc.communicate(timeout=10)
+notes = []
+notify.setblocking(False)
+try:
+    while True:
+        notes.append(notify.recv(256).decode())
+except BlockingIOError:
+    pass
+check(notes[:1] == ["READY=1"] and notes.count("WATCHDOG=1") >= 3 and notes[-1:] == ["STOPPING=1"],
+      "sd_notify: READY, watchdog pings, STOPPING (%d messages)" % len(notes))
+check("calibration: loaded" in out and "seq 1" in out and "stopped by SIGINT" in out,
+      "restart loads the saved calibration; SIGINT stops it: " + " | ".join(out.splitlines()[:3]))
+
+# --- console sharing the link's port: replies and frames on one pseudo-terminal -------------
+spec = importlib.util.spec_from_file_location("listen", LISTEN_PY)
+listen_mod = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(listen_mod)
+pb2 = listen_mod.load_pb2()
+proc = subprocess.Popen([EDGEFUSED, "--set", "link.tcp=false", "--set", "console.serial=link",
+                         "--set", "console.echo=false", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
+                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK)
+link_dev = None
+end = time.monotonic() + 10
+while time.monotonic() < end and link_dev is None:
+    line = proc.stdout.readline()
+    if line.startswith("link: "):
+        link_dev = line.split(": ", 1)[1].strip()
+shared = open_raw(link_dev)
+os.write(shared, b"scan start\r")
+time.sleep(0.3)
+os.write(shared, b"localize\r")
+data = b""
+end = time.monotonic() + 1.5
+while time.monotonic() < end:
+    r, _, _ = select.select([shared], [], [], 0.1)
+    if r:
+        data += os.read(shared, 65536)
+proc.send_signal(signal.SIGTERM)
+proc.communicate(timeout=10)
+os.close(shared)
+stats = listen_mod.Stats()
+results = []
+for block in data.split(b"\0"):
+    if not block:
+        continue
+    payload = listen_mod.check_frame(block, stats)
+    if payload is not None:
+        m = pb2.Message()
+        m.ParseFromString(payload)
+        if m.WhichOneof("body") == "result":
+            results.append(m.result)
+check(data.count(b"OK\r\n") >= 2, "shared port: console replies arrive on the link's port")
+check(len(results) == 1 and len(results[0].objects) == 3,
+      "shared port: the result decodes between the console's text (%d results, %d bad blocks)"
+      % (len(results), stats.crc_errors + stats.cobs_errors))
+
+print("%d failures" % len(failures))
+sys.exit(1 if failures else 0)

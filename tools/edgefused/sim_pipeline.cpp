@@ -1,0 +1,81 @@
+#include "sim_pipeline.hpp"
+
+#include <cstring>
+
+namespace edgefuse::sim {
+
+// Three parts lying in a bin about 0.7 m below the rig (world frame = robot base).
+const SimObject kSimObjects[3] = {
+    {"bracket", {0.412f, -0.105f, 0.031f, 0.0f, 0.0f, 0.2588190f, 0.9659258f}, 0.93f},
+    {"cylinder", {0.475f, 0.020f, 0.045f, 0.7071068f, 0.0f, 0.0f, 0.7071068f}, 0.88f},
+    {"box", {0.390f, 0.110f, 0.025f, 0.0f, 0.0f, 0.0f, 1.0f}, 0.61f},
+};
+
+namespace {
+constexpr uint64_t kFramePeriodUs = 33333;   // 30 Hz
+constexpr uint64_t kMovingUs = 2000000;      // the rig moves for 2 s after scan start
+constexpr uint64_t kLocalizeUs = 100000;     // 0.1 s of "localisation"
+}  // namespace
+
+const char* SimPipeline::device_name(int i) const {
+  static const char* const k[] = {"xtion", "tof", "laser"};
+  return i >= 0 && i < 3 ? k[i] : "?";
+}
+
+bool SimPipeline::start_mapping(const char**) {
+  mapping_ = true;
+  mapping_since_us_ = now_us_;
+  last_frame_us_ = now_us_;
+  return true;
+}
+
+void SimPipeline::step(uint64_t now_us) {
+  now_us_ = now_us;
+  if (!mapping_) {
+    stats_.fps = 0;
+    stats_.tracking = edgefuse_link_TrackingState_TRACKING_OFF;
+    stats_.still_since_us = 0;
+    return;
+  }
+  while (now_us - last_frame_us_ >= kFramePeriodUs) {
+    last_frame_us_ += kFramePeriodUs;
+    ++stats_.frames;
+    ++map_frames_;
+    capture_us_ = last_frame_us_;
+  }
+  stats_.fps = 30.0f;
+  stats_.tracking = edgefuse_link_TrackingState_TRACKING_OK;
+  stats_.still_since_us = now_us - mapping_since_us_ >= kMovingUs ? mapping_since_us_ + kMovingUs : 0;
+}
+
+bool SimPipeline::start_localization(uint64_t now_us, const char** why) {
+  if (map_frames_ == 0) {
+    *why = "the map is empty";
+    return false;
+  }
+  localizing_ = true;
+  localize_done_us_ = now_us + kLocalizeUs;
+  return true;
+}
+
+bool SimPipeline::poll_localization(link::LocalizationResult& out) {
+  if (!localizing_ || now_us_ < localize_done_us_) return false;
+  localizing_ = false;
+  out.stamp_us = capture_us_;
+  out.status = edgefuse_link_ResultStatus_RESULT_OK;
+  out.objects_count = 0;
+  for (int i = 0; i < 3; ++i) {
+    const float* p = kSimObjects[i].tq;
+    const Pose T = Pose::from_tq(p[0], p[1], p[2], p[3], p[4], p[5], p[6]);
+    // Grasp from above: the object's origin, approached along -z of the world.
+    link::add_object(out, uint32_t(i + 1), T, kSimObjects[i].score, T.t, Vec3f(0, 0, -1));
+  }
+  return true;
+}
+
+bool SimPipeline::start_pair_calibration(const char*, const char*, const char** why) {
+  *why = "rigid-pair calibration needs the fusion pipeline (not wired into edgefused yet)";
+  return false;
+}
+
+}  // namespace edgefuse::sim
