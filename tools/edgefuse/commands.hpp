@@ -8,5 +8,7 @@ int cmd_fuse(int argc, char** argv);
 int cmd_memmap(int argc, char** argv);
 int cmd_track(int argc, char** argv);
 int cmd_eval(int argc, char** argv);
+// localisation (issue 5)
+int cmd_localize(int argc, char** argv);
 
 }  // namespace edgefuse::cli

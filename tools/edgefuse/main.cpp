@@ -19,6 +19,8 @@ const Command kCommands[] = {
     {"memmap", edgefuse::cli::cmd_memmap, "print a board's static memory map"},
     {"track", edgefuse::cli::cmd_track, "track the sensor by ICP against the fused model, fuse, write the trajectory"},
     {"eval", edgefuse::cli::cmd_eval, "trajectory accuracy: ATE (aligned) / RPE against ground truth, as TUM's tools"},
+    // localisation (issue 5)
+    {"localize", edgefuse::cli::cmd_localize, "object poses (--model FILE.ply ...) or model-free segments (--segments)"},
 };
 
 void usage(std::FILE* out) {
