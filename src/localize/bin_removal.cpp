@@ -154,7 +154,11 @@ Status Localizer::remove_bin(const LocalizeParams& params) {
       fc += q * q.transpose();
     }
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> fes(fc);
-  const Vec3f e1 = fes.eigenvectors().col(2).cast<float>(), e2 = fes.eigenvectors().col(1).cast<float>();
+  Vec3f e1 = fes.eigenvectors().col(2).cast<float>(), e2 = fes.eigenvectors().col(1).cast<float>();
+  if (ctx_.walls > 0) {  // a bin is a box: its walls give the axes exactly, PCA of a half-hidden floor does not
+    e1 = (ctx_.wall_n[0] - ctx_.up * ctx_.wall_n[0].dot(ctx_.up)).normalized();
+    e2 = ctx_.up.cross(e1);
+  }
   // Histogram-free robust bounds: the extremes after dropping the outermost 0.2 % (two passes of
   // "largest k" would need sorting; a coarse 1 mm-bin count over +-1 m is static and small).
   float lo1 = 0, hi1 = 0, lo2 = 0, hi2 = 0;

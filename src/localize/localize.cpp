@@ -21,6 +21,15 @@ float rot_angle(const Mat3f& A, const Mat3f& B) {
   return std::acos(ppf::clamp_unit(c));
 }
 
+// A total order on poses (translation, then rotation) so that sorts need no stability.
+bool pose_less(const Pose& a, const Pose& b) {
+  for (int i = 0; i < 3; ++i)
+    if (a.t[i] != b.t[i]) return a.t[i] < b.t[i];
+  for (int i = 0; i < 9; ++i)
+    if (a.R.data()[i] != b.R.data()[i]) return a.R.data()[i] < b.R.data()[i];
+  return false;
+}
+
 // At most this many model samples take part in ICP and verification (even stride over the table).
 constexpr uint32_t kIcpPoints = 1500;
 
@@ -87,8 +96,12 @@ void Localizer::verify(int m, const Pose& T, const LocalizeParams& params, Local
     const Vec3f n = T.R * dense[i].n;
     ++total;
     const float height = ctx_.has_floor ? ctx_.up.dot(q) + ctx_.floor_offset : ctx_.up.dot(q);
-    const float fs = free_space_at(q);
-    if (fs > params.free_space_margin_m || (ctx_.has_floor && height < -2.0f * params.floor_tol_m)) ++violations;
+    // Known empty space at the sample and 1.5 voxels inside the model: the first alone also fires
+    // at silhouettes, where projective distances along grazing rays overstate free space.
+    const float inset = volume_ ? 1.5f * volume_->voxel_m() : 0.0f;
+    const bool empty = free_space_at(q) > params.free_space_margin_m &&
+                       free_space_at(q - n * inset) > params.free_space_margin_m;
+    if (empty || (ctx_.has_floor && height < -2.0f * params.floor_tol_m)) ++violations;
     if (n.dot(ctx_.viewpoint_m - q) <= 0) continue;
     if (ctx_.has_floor && height < params.floor_tol_m) continue;  // the floor contact was removed with the bin
     if (volume_) {  // an unobserved model point is occluded, not missing
@@ -149,8 +162,12 @@ void Localizer::claim(int m, const Pose& T, const LocalizeParams& params, int32_
 void Localizer::sort_picking_order(std::size_t count) const {
   // Highest first; an occluded object (low supported share) counts up to 5 cm lower.
   auto key = [](const LocalizedObject& o) { return o.top_m - 0.05f * (1.0f - std::min(o.score, 1.0f)); };
-  std::stable_sort(b_.results, b_.results + count,
-                   [&key](const LocalizedObject& a, const LocalizedObject& b) { return key(a) > key(b); });
+  std::sort(b_.results, b_.results + count, [&key](const LocalizedObject& a, const LocalizedObject& b) {
+    if (key(a) != key(b)) return key(a) > key(b);
+    if (a.model != b.model) return a.model < b.model;
+    if (a.segment != b.segment) return a.segment < b.segment;
+    return pose_less(a.T_world_object, b.T_world_object);
+  });
 }
 
 Status Localizer::localize(const LocalizeParams& params, int max_results, std::size_t& count) {
@@ -167,7 +184,11 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
     last_candidates_ += nc;
     // Greedy clustering, strongest candidates first.
     PoseCandidate* cand = b_.candidates;
-    std::stable_sort(cand, cand + nc, [](const PoseCandidate& a, const PoseCandidate& b) { return a.votes > b.votes; });
+    // std::sort with full tie-breaks (stable_sort would allocate a buffer).
+    std::sort(cand, cand + nc, [](const PoseCandidate& a, const PoseCandidate& b) {
+      if (a.votes != b.votes) return a.votes > b.votes;
+      return pose_less(a.T_world_object, b.T_world_object);
+    });
     int ncl = 0;
     const float dt = params.cluster_trans_rel * info.diameter_m;
     const float dr = params.cluster_rot_deg * ppf::kPi / 180.0f;
@@ -180,7 +201,9 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
       if (found >= 0) clusters[found].votes += cand[k].votes;
       else if (ncl < 8 * kClustersPerModel) clusters[ncl++] = Cluster{cand[k].T_world_object, cand[k].votes, uint32_t(k)};
     }
-    std::stable_sort(clusters, clusters + ncl, [](const Cluster& a, const Cluster& b) { return a.votes > b.votes; });
+    std::sort(clusters, clusters + ncl, [](const Cluster& a, const Cluster& b) {
+      return a.votes > b.votes || (a.votes == b.votes && a.first < b.first);
+    });
     // Refine the strongest clusters, at most 3 per neighbourhood (half a diameter): a large curved
     // object attracts many clusters of every model; the others must still get their turn.
     int refined = 0;
@@ -204,8 +227,11 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
   }
   // Best first (explained surface x supported share); a hypothesis whose support is mostly claimed
   // by a better one is a duplicate (or a symmetric twin) or a conflicting explanation.
-  std::stable_sort(b_.verified, b_.verified + nverified, [](const LocalizedObject& a, const LocalizedObject& b) {
-    return float(a.support) * a.score > float(b.support) * b.score;
+  std::sort(b_.verified, b_.verified + nverified, [](const LocalizedObject& a, const LocalizedObject& b) {
+    const float qa = float(a.support) * a.score, qb = float(b.support) * b.score;
+    if (qa != qb) return qa > qb;
+    if (a.model != b.model) return a.model < b.model;
+    return pose_less(a.T_world_object, b.T_world_object);
   });
   int per_model[64] = {};
   for (std::size_t k = 0; k < nverified && count < std::size_t(max_results); ++k) {

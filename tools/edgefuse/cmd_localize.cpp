@@ -237,6 +237,13 @@ int cmd_localize(int argc, char** argv) {
   const SceneContext& c = loc.context();
   std::printf("bin: %s, %d walls; %zu of %zu scene points left\n", c.has_floor ? "floor found" : "no floor", c.walls,
               loc.scene_count(), before);
+  if (c.has_floor)
+    std::printf("floor: up %.3f %.3f %.3f offset %.4f, centre %.3f %.3f %.3f, extent %.3f..%.3f along (%.2f %.2f %.2f), "
+                "%.3f..%.3f along (%.2f %.2f %.2f)\n",
+                c.up.x(), c.up.y(), c.up.z(), c.floor_offset, c.floor_centre_m.x(), c.floor_centre_m.y(),
+                c.floor_centre_m.z(), c.floor_lo[0], c.floor_hi[0], c.floor_axis[0].x(), c.floor_axis[0].y(),
+                c.floor_axis[0].z(), c.floor_lo[1], c.floor_hi[1], c.floor_axis[1].x(), c.floor_axis[1].y(),
+                c.floor_axis[1].z());
   if (args.has("scene-out")) {  // diagnostics: the scene the matcher sees
     io::PointCloud sc;
     for (std::size_t i = 0; i < loc.scene_count(); ++i) {
