@@ -32,13 +32,14 @@ bool pose_less(const Pose& a, const Pose& b) {
 
 // At most this many model samples take part in ICP and verification (even stride over the table).
 constexpr uint32_t kIcpPoints = 1500;
+constexpr uint32_t kRefinePoints = 1500;  // ICP needs fewer than the verification
 
 }  // namespace
 
 bool Localizer::refine(int m, Pose& T, const LocalizeParams& params) const {
   const ModelInfo& info = b_.models[m];
   const OrientedPoint* dense = model_points(m);
-  const uint32_t stride = info.dense_count > kIcpPoints ? (info.dense_count + kIcpPoints - 1) / kIcpPoints : 1;
+  const uint32_t stride = info.dense_count > kRefinePoints ? (info.dense_count + kRefinePoints - 1) / kRefinePoints : 1;
   float radius = std::max(2.0f * info.ppf_step_m, 0.01f);
   const float radius_min = std::max(2.0f * params.support_tol_m, 1.5f * grid_cell_m_ * 0.5f);
   for (int it = 0; it < params.icp_iterations; ++it) {
@@ -174,7 +175,9 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
   count = 0;
   if (!b_.scene) return Status::kNotInitialised;
   if (max_results > b_.objects_max) max_results = b_.objects_max;
-  for (std::size_t i = 0; i < scene_count_; ++i) b_.labels[i] = 0;
+  // Point pairs vote only within one connected part of the scene (objects that do not touch do
+  // not vote for each other's poses): fewer pairs, less clutter.
+  connected_components(std::max(2.0f * grid_cell_m_ * 0.5f, params.support_tol_m * 1.5f));
   std::size_t nverified = 0;
   last_candidates_ = 0;
   Cluster clusters[8 * kClustersPerModel];
@@ -233,6 +236,7 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
     if (a.model != b.model) return a.model < b.model;
     return pose_less(a.T_world_object, b.T_world_object);
   });
+  for (std::size_t i = 0; i < scene_count_; ++i) b_.labels[i] = 0;  // now: claims of accepted poses
   int per_model[64] = {};
   for (std::size_t k = 0; k < nverified && count < std::size_t(max_results); ++k) {
     const LocalizedObject& h = b_.verified[k];

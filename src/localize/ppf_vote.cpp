@@ -25,8 +25,9 @@ std::size_t Localizer::vote_model(int m, const LocalizeParams& params, std::size
     const ScenePoint& sr = b_.scene[b_.sample[r]];
     const Mat3f R_sg = ppf::align_to_x(sr.n);
     std::memset(b_.votes, 0, acc_size * sizeof(uint16_t));
+    const int32_t component = b_.labels[b_.sample[r]];
     for (std::size_t i = 0; i < ns; ++i) {
-      if (i == r) continue;
+      if (i == r || b_.labels[b_.sample[i]] != component) continue;  // pairs within one connected part
       const ScenePoint& si = b_.scene[b_.sample[i]];
       uint32_t key;
       if (!ppf::feature_key(sr.p, sr.n, si.p, si.n, inv_step, max_d, key)) continue;

@@ -21,6 +21,37 @@ float picking_key(const LocalizedObject& o) { return o.top_m - 0.05f * (1.0f - s
 
 }  // namespace
 
+void Localizer::connected_components(float radius_m) {
+  const std::size_t n = scene_count_;
+  for (std::size_t i = 0; i < n; ++i) b_.labels[i] = 0;
+  const float r2 = radius_m * radius_m;
+  const int k = int(std::ceil(radius_m * grid_inv_));
+  std::size_t tail = 0;
+  int32_t label = 0;
+  for (std::size_t seed = 0; seed < n; ++seed) {
+    if (b_.labels[seed] != 0) continue;
+    ++label;
+    const std::size_t start = tail;
+    b_.labels[seed] = label;
+    b_.queue[tail++] = uint32_t(seed);
+    for (std::size_t head = start; head < tail; ++head) {
+      const Vec3f p = b_.scene[b_.queue[head]].p;
+      const int32_t cx = floor_int(p.x() * grid_inv_), cy = floor_int(p.y() * grid_inv_), cz = floor_int(p.z() * grid_inv_);
+      for (int dz = -k; dz <= k; ++dz)
+        for (int dy = -k; dy <= k; ++dy)
+          for (int dx = -k; dx <= k; ++dx) {
+            const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
+            for (uint32_t e = b_.grid_buckets[h]; e < b_.grid_buckets[h + 1]; ++e) {
+              const uint32_t j = b_.grid_index[e];
+              if (b_.labels[j] != 0 || (b_.scene[j].p - p).squaredNorm() > r2) continue;
+              b_.labels[j] = label;
+              b_.queue[tail++] = j;
+            }
+          }
+    }
+  }
+}
+
 Status Localizer::segment(const LocalizeParams& params, int max_results, std::size_t& count) {
   count = 0;
   if (!b_.scene) return Status::kNotInitialised;

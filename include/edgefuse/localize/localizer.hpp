@@ -153,6 +153,8 @@ class Localizer {
   //! Claims the scene points on the visible surface of model m at T.
   void claim(int m, const Pose& T, const LocalizeParams& params, int32_t label) const;
   std::size_t subsample_scene(float step_m);
+  //! Labels the scene's connected parts (neighbours within radius) into labels[].
+  void connected_components(float radius_m);
   std::size_t vote_model(int m, const LocalizeParams& params, std::size_t first_candidate);
   bool refine(int m, Pose& T, const LocalizeParams& params) const;
   void verify(int m, const Pose& T, const LocalizeParams& params, LocalizedObject& out, int claim_label,
