@@ -36,13 +36,33 @@ constexpr uint32_t kRefinePoints = 1500;  // ICP needs fewer than the verificati
 
 }  // namespace
 
+bool Localizer::plausible(int m, const Pose& T, const LocalizeParams& params) const {
+  // Share of ~100 facing samples with a scene point within two PPF steps: far below the final
+  // threshold means ICP cannot rescue the pose.
+  const ModelInfo& info = b_.models[m];
+  const OrientedPoint* dense = model_points(m);
+  const uint32_t stride = info.dense_count > 100 ? info.dense_count / 100 : 1;
+  uint32_t facing = 0, near = 0;
+  const float r = std::max(2.0f * info.ppf_step_m, 2.0f * params.support_tol_m);
+  for (uint32_t i = 0; i < info.dense_count; i += stride) {
+    const Vec3f q = T * dense[i].p;
+    if ((T.R * dense[i].n).dot(ctx_.viewpoint_m - q) <= 0) continue;
+    ++facing;
+    float d2;
+    near += nearest(q, r, d2) >= 0;
+  }
+  return facing > 0 && float(near) >= 0.5f * params.min_score * float(facing);
+}
+
 bool Localizer::refine(int m, Pose& T, const LocalizeParams& params) const {
   const ModelInfo& info = b_.models[m];
   const OrientedPoint* dense = model_points(m);
-  const uint32_t stride = info.dense_count > kRefinePoints ? (info.dense_count + kRefinePoints - 1) / kRefinePoints : 1;
+  // Coarse to fine: the first iterations (large gate) use a quarter of the samples.
+  const uint32_t fine = info.dense_count > kRefinePoints ? (info.dense_count + kRefinePoints - 1) / kRefinePoints : 1;
   float radius = std::max(2.0f * info.ppf_step_m, 0.01f);
   const float radius_min = std::max(2.0f * params.support_tol_m, 1.5f * grid_cell_m_ * 0.5f);
   for (int it = 0; it < params.icp_iterations; ++it) {
+    const uint32_t stride = it < params.icp_iterations / 2 ? 4 * fine : fine;
     Eigen::Matrix<float, 6, 6> A = Eigen::Matrix<float, 6, 6>::Zero();
     Eigen::Matrix<float, 6, 1> rhs = Eigen::Matrix<float, 6, 1>::Zero();
     const Vec3f c = T * info.centre_m;
@@ -214,6 +234,7 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
       int near = 0;
       for (int p = 0; p < c; ++p)
         near += clusters[p].votes >= 0 && (clusters[p].T.t - clusters[c].T.t).norm() < 0.5f * info.diameter_m;
+      if (near < 3 && !plausible(m, clusters[c].T, params)) near = 3;  // cheap pre-check before ICP
       if (near >= 3) {
         clusters[c].votes = -1;  // skipped: does not count as refined
         continue;

@@ -157,6 +157,7 @@ class Localizer {
   void connected_components(float radius_m);
   std::size_t vote_model(int m, const LocalizeParams& params, std::size_t first_candidate);
   bool refine(int m, Pose& T, const LocalizeParams& params) const;
+  bool plausible(int m, const Pose& T, const LocalizeParams& params) const;
   void verify(int m, const Pose& T, const LocalizeParams& params, LocalizedObject& out, int claim_label,
               float* overlap) const;
   float free_space_at(const Vec3f& p) const;
