@@ -97,7 +97,7 @@ bool Localizer::refine(int m, Pose& T, const LocalizeParams& params) const {
     const Eigen::Quaternionf q(T.R);
     T.R = q.normalized().toRotationMatrix();
     radius = std::max(radius * 0.75f, radius_min);
-    if (angle < 1e-5f && x.tail<3>().norm() < 1e-5f && radius == radius_min) break;
+    if (angle < 2e-4f && x.tail<3>().norm() < 2e-5f && radius == radius_min) break;  // 0.01 deg, 20 um
   }
   return true;
 }
