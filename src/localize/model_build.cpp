@@ -117,7 +117,7 @@ Status Localizer::finish_model(const char* name, std::size_t dense_count, const 
                                int& model_index) {
   const int m = model_count_;
   ModelInfo& info = b_.models[m];
-  std::memset(&info, 0, sizeof(info));
+  info = ModelInfo{};
   std::strncpy(info.name, name ? name : "model", kModelNameMax - 1);
   const OrientedPoint* dense = b_.model_points + std::size_t(m) * b_.model_points_max;
   Vec3f lo = dense[0].p, hi = dense[0].p;

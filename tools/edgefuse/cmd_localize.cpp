@@ -50,10 +50,6 @@ bool is_dir(const std::string& p) {
   return stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
 }
 
-std::string base_name(const std::string& p) {
-  const std::size_t s = p.find_last_of('/');
-  return s == std::string::npos ? p : p.substr(s + 1);
-}
 
 bool ends_with(const std::string& s, const char* e) {
   const std::size_t n = std::strlen(e);

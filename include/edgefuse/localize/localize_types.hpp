@@ -39,15 +39,15 @@ struct PpfEntry {
 
 //! A model as stored at start-up.
 struct ModelInfo {
-  char name[kModelNameMax];  //!< base name of its file (for the output)
-  float diameter_m;          //!< largest distance between two surface samples
-  float ppf_step_m;          //!< sampling and distance quantisation of the PPF table
-  float dense_step_m;        //!< spacing of the dense samples (refinement / verification)
-  Vec3f half_extent_m;       //!< half the bounding box (object frame)
-  Vec3f centre_m;            //!< bounding-box centre (object frame)
-  uint32_t dense_count;      //!< dense samples (ICP, verification)
-  uint32_t ppf_count;        //!< sparse samples (PPF table)
-  uint32_t entry_count;      //!< PPF table entries
+  char name[kModelNameMax] = {};  //!< base name of its file (for the output)
+  float diameter_m = 0;      //!< largest distance between two surface samples
+  float ppf_step_m = 0;      //!< sampling and distance quantisation of the PPF table
+  float dense_step_m = 0;    //!< spacing of the dense samples (refinement / verification)
+  Vec3f half_extent_m = Vec3f::Zero();  //!< half the bounding box (object frame)
+  Vec3f centre_m = Vec3f::Zero();       //!< bounding-box centre (object frame)
+  uint32_t dense_count = 0;  //!< dense samples (ICP, verification)
+  uint32_t ppf_count = 0;    //!< sparse samples (PPF table)
+  uint32_t entry_count = 0;  //!< PPF table entries
 };
 
 //! A pose hypothesis from one scene reference point's vote peak.
