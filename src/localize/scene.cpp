@@ -28,7 +28,7 @@ Status Localizer::set_scene(const SurfacePoint* points, std::size_t count, const
       s = Status::kOutputTruncated;
       break;
     }
-    b_.scene[n++] = ScenePoint{points[i].position, points[i].normal, uint32_t(i)};
+    b_.scene[n++] = ScenePoint{points[i].position, points[i].normal, uint32_t(i), points[i].colour};
   }
   scene_count_ = n;
   ctx_ = context;

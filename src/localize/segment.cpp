@@ -6,6 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 
 #include "edgefuse/localize/localizer.hpp"
 #include "edgefuse/math/real.hpp"
@@ -87,6 +88,11 @@ Status Localizer::segment(const LocalizeParams& params, int max_results, std::si
               const bool smooth = a.n.dot(c.n) > cos_smooth;
               const bool convex = (c.n - a.n).dot(d) >= -params.segment_concave_tol * std::sqrt(dd);
               if (!smooth && !convex) continue;
+              if (params.segment_colour_tol > 0 && a.colour.a && c.colour.a &&
+                  std::abs(int(a.colour.r) - int(c.colour.r)) + std::abs(int(a.colour.g) - int(c.colour.g)) +
+                          std::abs(int(a.colour.b) - int(c.colour.b)) >
+                      params.segment_colour_tol)
+                continue;
               b_.labels[j] = label;
               b_.queue[tail++] = j;
             }

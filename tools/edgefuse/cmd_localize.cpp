@@ -32,7 +32,8 @@ const char* kUsage =
     "       edgefuse localize INPUT --segments [--max N] [--out labels.pcd]\n"
     "  options: [--sensor NAME] [--frames N] [--voxel M] [--volume N] [--threads N] [--no-walls] [--min-score S]\n"
     "           [--scene-out FILE.ply] (the scene after bin removal, for inspection)\n"
-    "           [--seg-smooth DEG] [--seg-concave TOL] [--seg-radius M] (region growing, see localizer.hpp)\n"
+    "           [--seg-smooth DEG] [--seg-concave TOL] [--seg-radius M] [--seg-colour TOL]\n"
+    "           (region growing, see localizer.hpp)\n"
     "  INPUT: a rig set or depth-sequence folder (fused at its ground-truth poses), a single-frame folder\n"
     "  (depth.png + camera.toml, fused as one frame), or a PLY/PCD cloud (organised clouds get normals from\n"
     "  their image neighbours; unorganised ones need normals).\n"
@@ -75,7 +76,7 @@ int cmd_localize(int argc, char** argv) {
   }
   Args args;
   std::string err;
-  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "seg-smooth", "seg-concave", "seg-radius"},
+  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
                   {"segments", "no-walls"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
@@ -105,7 +106,8 @@ int cmd_localize(int argc, char** argv) {
       !args.get_int("threads", 1, 64, fs.threads, err) || !args.get_float("min-score", 0.0f, 1.0f, params.min_score, err) ||
       !args.get_float("seg-smooth", 0.0f, 90.0f, params.segment_smooth_deg, err) ||
       !args.get_float("seg-concave", -1.0f, 1.0f, params.segment_concave_tol, err) ||
-      !args.get_float("seg-radius", 0.001f, 0.1f, params.segment_radius_m, err)) {
+      !args.get_float("seg-radius", 0.001f, 0.1f, params.segment_radius_m, err) ||
+      !args.get_int("seg-colour", 0, 765, params.segment_colour_tol, err)) {
     std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
     return 2;
   }

@@ -117,9 +117,17 @@ bool cloud_scene_points(const io::PointCloud& cloud, std::vector<ScenePoint>& ou
     }
   }
   out.clear();
+  // PCD "rgba" fields often carry alpha 0 (PCL writes it so): any colour of a coloured cloud counts.
+  auto colour = [&cloud](std::size_t i) {
+    if (cloud.colours.empty()) return Rgba8{};
+    Rgba8 c = cloud.colours[i];
+    c.a = 255;
+    return c;
+  };
   for (std::size_t i = 0; i < cloud.size(); ++i)
     if (cloud.points[i].allFinite() && normals[i].allFinite())
-      out.push_back(ScenePoint{cloud.points[i], normals[i].normalized(), uint32_t(i)});
+      out.push_back(ScenePoint{cloud.points[i], normals[i].normalized(), uint32_t(i),
+                                colour(i)});
   if (out.size() < 100) {
     err = "fewer than 100 points with normals";
     return false;

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "edgefuse/core/image.hpp"
 #include "edgefuse/math/pose.hpp"
 
 namespace edgefuse {
@@ -21,6 +22,7 @@ struct ScenePoint {
   Vec3f p;
   Vec3f n;
   uint32_t source;
+  Rgba8 colour;  //!< a = 0: no colour
 };
 
 inline constexpr int kModelNameMax = 40;

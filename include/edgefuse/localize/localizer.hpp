@@ -74,6 +74,7 @@ struct LocalizeParams {
   float segment_smooth_deg = 15.0f;  //!< neighbours with normals closer than this always join
   float segment_concave_tol = 0.05f; //!< (n_j - n_i).(p_j - p_i)/|p_j - p_i| above -tol joins (convex)
   int segment_min_points = 150;      //!< smaller segments are noise (label 0)
+  int segment_colour_tol = 0;        //!< > 0: neighbours whose colours differ by more (sum of |dR|+|dG|+|dB|) do not join
 };
 
 class Localizer {
