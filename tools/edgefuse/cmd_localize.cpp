@@ -36,7 +36,7 @@ const char* kUsage =
     "           (region growing, see localizer.hpp)\n"
     "  INPUT: a rig set or depth-sequence folder (fused at its ground-truth poses), a single-frame folder\n"
     "  (depth.png + camera.toml, fused as one frame), or a PLY/PCD cloud (organised clouds get normals from\n"
-    "  their image neighbours; unorganised ones need normals).\n"
+    "  their image neighbours, unorganised ones without normals by PCA; no free-space check on clouds).\n"
     "  Poses: one line per object `id tx ty tz qx qy qz qw score model` (T_world_object; id = picking rank).\n"
     "  Segments: a PCD with a `label` field per input point (organised inputs keep width x height; 0 = none).\n";
 
