@@ -85,15 +85,7 @@ bool read_pose_lines(const std::string& path, std::vector<PoseLine>& out, std::s
   return true;
 }
 
-// A model for evaluation: even surface samples, diameter, symmetries.
-struct EvalModel {
-  std::vector<Vec3f> pts;
-  Vec3f centre = Vec3f::Zero();
-  float diameter = 0;
-  std::vector<Mat3f> syms;      // discrete symmetries (identity first)
-  std::vector<Vec3f> cont_axes; // axes of continuous symmetry
-  bool symmetric() const { return syms.size() > 1 || !cont_axes.empty(); }
-};
+}  // namespace
 
 bool load_eval_model(const std::string& path, EvalModel& m, std::string& err) {
   io::TriangleMesh mesh;
@@ -181,17 +173,16 @@ bool load_eval_model(const std::string& path, EvalModel& m, std::string& err) {
   return true;
 }
 
+namespace {
 double angle_deg(const Mat3f& R) {
   const double c = 0.5 * (double(R.trace()) - 1.0);
   return std::acos(std::max(-1.0, std::min(1.0, c))) * 180.0 / kPi;
 }
 
-struct Errors {
-  double t_mm, r_deg, add_mm;
-};
+}  // namespace
 
-Errors pose_errors(const EvalModel& m, const Pose& E, const Pose& G) {
-  Errors e;
+PoseErrors pose_errors(const EvalModel& m, const Pose& E, const Pose& G) {
+  PoseErrors e;
   e.t_mm = double((E * m.centre - G * m.centre).norm()) * 1e3;
   e.r_deg = 1e9;
   if (!m.cont_axes.empty()) {
@@ -221,6 +212,7 @@ Errors pose_errors(const EvalModel& m, const Pose& E, const Pose& G) {
   return e;
 }
 
+namespace {
 int fail(const std::string& msg) {
   std::fprintf(stderr, "edgefuse eval: %s\n", msg.c_str());
   return 1;
@@ -289,7 +281,7 @@ int cmd_eval_poses(int argc, char** argv) {
     }
     used[std::size_t(best)] = 1;
     ++found;
-    const Errors e = pose_errors(m, est[std::size_t(best)].T, g.T);
+    const PoseErrors e = pose_errors(m, est[std::size_t(best)].T, g.T);
     te.push_back(e.t_mm);
     re.push_back(e.r_deg);
     const bool a5 = e.t_mm <= 5 && e.r_deg <= 5, a10 = e.t_mm <= 10 && e.r_deg <= 10,
