@@ -13,6 +13,7 @@
 #include "args.hpp"
 #include "commands.hpp"
 #include "eval_metrics.hpp"
+#include "eval_poses.hpp"  // localisation (issue 5)
 
 namespace edgefuse::cli {
 namespace {
@@ -94,8 +95,11 @@ int run_rpe(const std::vector<io::StampedPose>& est, const std::vector<io::Stamp
 }  // namespace
 
 int cmd_eval(int argc, char** argv) {
+  // localisation (issue 5): object poses and segments
+  if (argc >= 1 && !std::strcmp(argv[0], "poses")) return cmd_eval_poses(argc - 1, argv + 1);
+  if (argc >= 1 && !std::strcmp(argv[0], "segments")) return cmd_eval_segments(argc - 1, argv + 1);
   if (argc < 1 || (std::strcmp(argv[0], "ate") && std::strcmp(argv[0], "rpe"))) {
-    std::fprintf(stderr, "edgefuse eval: expected 'ate' or 'rpe'%s%s\n%s", argc < 1 ? "" : ", got ",
+    std::fprintf(stderr, "edgefuse eval: expected 'ate', 'rpe', 'poses' or 'segments'%s%s\n%s", argc < 1 ? "" : ", got ",
                  argc < 1 ? "" : argv[0], kUsage);
     return 2;
   }

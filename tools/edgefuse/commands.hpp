@@ -13,5 +13,7 @@ int cmd_calibrate(int argc, char** argv);
 int cmd_fuse_rig(int argc, char** argv);  //!< `fuse RIGSET --sensors ...` (called by cmd_fuse)
 // pose link (issue 7, feat/link)
 int cmd_listen(int argc, char** argv);
+// localisation (issue 5)
+int cmd_localize(int argc, char** argv);
 
 }  // namespace edgefuse::cli

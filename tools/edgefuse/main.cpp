@@ -23,6 +23,8 @@ const Command kCommands[] = {
     {"calibrate", edgefuse::cli::cmd_calibrate, "find the mounting T_A_B of two rigidly mounted sensors from the data"},
     // pose link (issue 7, feat/link)
     {"listen", edgefuse::cli::cmd_listen, "decode and print the pose link (serial, TCP, UDP or a captured file)"},
+    // localisation (issue 5)
+    {"localize", edgefuse::cli::cmd_localize, "object poses (--model FILE.ply ...) or model-free segments (--segments)"},
 };
 
 void usage(std::FILE* out) {

@@ -17,6 +17,12 @@ struct BoardCapacities {
   int objects_max;             //!< most objects in one localisation result
   uint64_t ram_budget_bytes;   //!< what the static memory map may use
   bool fixed_point;            //!< the board's default numeric build
+  // localisation (issue 5)
+  int models_max;              //!< object models loaded at start-up
+  uint32_t model_points_max;   //!< dense surface samples per model (refinement, verification)
+  uint32_t ppf_points_max;     //!< sparse samples per model (point pair feature table: n(n-1) entries)
+  uint32_t scene_points_max;   //!< scene points the localiser holds (fused surface or input cloud)
+  uint32_t hypotheses_max;     //!< pose candidates (vote peaks) per model
 };
 
 }  // namespace edgefuse

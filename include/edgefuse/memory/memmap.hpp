@@ -9,6 +9,7 @@
 #include "edgefuse/core/image.hpp"
 #include "edgefuse/core/status.hpp"
 #include "edgefuse/math/pose.hpp"
+#include "edgefuse/localize/localizer.hpp"  // localisation (issue 5)
 #include "edgefuse/memory/capacities.hpp"
 #include "edgefuse/tracking/icp.hpp"
 #include "edgefuse/tsdf/extract.hpp"
@@ -41,6 +42,23 @@ enum class Region : int {
   kIcpRowSums,      //!< tracking: ICP per-row partial sums per sensor
   // multi-sensor fusion (issue 4)
   kTrustMaps,       //!< per-pixel trust (uint8, 1/255) from each sensor's noise model
+  // localisation (issue 5)
+  kLocModels,       //!< model descriptions
+  kLocModelPoints,  //!< dense model samples
+  kLocPpfPoints,    //!< sparse model samples (PPF)
+  kLocPpfEntries,   //!< PPF hash table entries
+  kLocPpfBuckets,   //!< PPF hash table bucket offsets
+  kLocScene,        //!< scene points (bin removed)
+  kLocScratch,      //!< sort keys (subsampling)
+  kLocGridIndex,    //!< scene grid: point indices by cell
+  kLocGridBuckets,  //!< scene grid: bucket offsets
+  kLocSample,       //!< subsampled scene indices
+  kLocLabels,       //!< per scene point: claim / segment label
+  kLocQueue,        //!< region growing queue
+  kLocVotes,        //!< PPF vote accumulator
+  kLocCandidates,   //!< pose candidates (vote peaks)
+  kLocVerified,     //!< refined, verified hypotheses
+  kLocResults,      //!< the pose list
   kCount
 };
 
@@ -91,6 +109,25 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kIcpRowSums, "icp row sums", uint64_t(c.image_height_max) * kIcpRowBytes * c.sensors_max);
   // multi-sensor fusion (issue 4)
   set(Region::kTrustMaps, "trust maps (uint8)", pixels * sizeof(uint8_t));
+  // localisation (issue 5)
+  const uint64_t mm = uint64_t(c.models_max);
+  set(Region::kLocModels, "loc models", mm * sizeof(ModelInfo));
+  set(Region::kLocModelPoints, "loc model samples", mm * c.model_points_max * sizeof(OrientedPoint));
+  set(Region::kLocPpfPoints, "loc ppf samples", mm * c.ppf_points_max * sizeof(OrientedPoint));
+  set(Region::kLocPpfEntries, "loc ppf table",
+      mm * c.ppf_points_max * (c.ppf_points_max > 0 ? c.ppf_points_max - 1 : 0) * sizeof(PpfEntry));
+  set(Region::kLocPpfBuckets, "loc ppf buckets", mm * (kPpfBuckets + 1) * sizeof(uint32_t));
+  set(Region::kLocScene, "loc scene points", uint64_t(c.scene_points_max) * sizeof(ScenePoint));
+  set(Region::kLocScratch, "loc sort keys", uint64_t(c.scene_points_max) * 2 * sizeof(uint64_t));
+  set(Region::kLocGridIndex, "loc grid index", uint64_t(c.scene_points_max) * sizeof(uint32_t));
+  set(Region::kLocGridBuckets, "loc grid buckets", uint64_t(kGridBuckets + 1) * sizeof(uint32_t));
+  set(Region::kLocSample, "loc scene sample", uint64_t(c.scene_points_max) * sizeof(uint32_t));
+  set(Region::kLocLabels, "loc labels", uint64_t(c.scene_points_max) * sizeof(int32_t));
+  set(Region::kLocQueue, "loc queue", uint64_t(c.scene_points_max) * sizeof(uint32_t));
+  set(Region::kLocVotes, "loc votes", uint64_t(c.ppf_points_max) * kPpfAngleBins * sizeof(uint16_t));
+  set(Region::kLocCandidates, "loc pose candidates", uint64_t(c.hypotheses_max) * sizeof(PoseCandidate));
+  set(Region::kLocVerified, "loc verified hypotheses", mm * kClustersPerModel * sizeof(LocalizedObject));
+  set(Region::kLocResults, "loc pose list", uint64_t(c.objects_max) * sizeof(LocalizedObject));
   uint64_t total = 0;
   for (const MemoryRegion& r : m.regions) total += align_up(r.bytes, kRegionAlign);
   m.total_bytes = total;
@@ -116,6 +153,7 @@ struct CoreBuffers {
   void* pyramid_normal = nullptr;     //!< the same
   void* icp_rows = nullptr;           //!< IcpSums of either build, kIcpRowBytes per row
   uint8_t* trust_maps = nullptr;      //!< sensors_max trust maps of image_*_max (multi-sensor fusion)
+  LocalizeBuffers localize;           //!< localisation tables (issue 5)
   std::size_t pixels_per_sensor = 0;  //!< stride between the sensors' images in each region
   std::size_t tiles_per_sensor = 0;   //!< stride between the sensors' tile arrays
   std::size_t pyramid_points_per_sensor = 0;  //!< points of one sensor's pyramid map (all levels)

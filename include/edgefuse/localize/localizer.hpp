@@ -1,0 +1,185 @@
+// Object localisation for bin picking on the fused surface.
+//
+// Model-based: point pair feature voting (Drost et al., CVPR 2010) on a subsampled scene, pose
+// clustering, point-to-plane ICP against the full scene, verification by the share of the visible
+// model surface the scene supports and by free-space violations (model surface where the TSDF
+// knows the space is empty). Model-free: bin removed, region growing that joins neighbours across
+// smooth or convex connections (so stacked boxes split at their concave contact).
+//
+// Memory: models are sampled once at start-up into fixed tables; localising touches only the
+// static buffers below (no allocation). Results are deterministic (no random sampling; the bin
+// plane search uses a fixed-seed generator; sorts break ties by index).
+// Numbers: float in every build (poses and votes need the dynamic range; the ARM targets have
+// hardware float).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "edgefuse/core/status.hpp"
+#include "edgefuse/localize/localize_types.hpp"
+#include "edgefuse/memory/capacities.hpp"
+#include "edgefuse/tsdf/extract.hpp"
+#include "edgefuse/tsdf/volume.hpp"
+
+namespace edgefuse {
+
+//! Views of the localisation regions of the static memory map (see memmap.hpp).
+struct LocalizeBuffers {
+  ModelInfo* models = nullptr;          //!< models_max
+  OrientedPoint* model_points = nullptr;  //!< models_max * model_points_max (dense samples)
+  OrientedPoint* ppf_points = nullptr;    //!< models_max * ppf_points_max (sparse samples)
+  PpfEntry* ppf_entries = nullptr;        //!< models_max * ppf_points_max * (ppf_points_max - 1)
+  uint32_t* ppf_buckets = nullptr;        //!< models_max * (kPpfBuckets + 1)
+  ScenePoint* scene = nullptr;            //!< scene_points_max
+  uint64_t* scratch = nullptr;            //!< 2 * scene_points_max (sort keys; model sampling)
+  uint32_t* grid_index = nullptr;         //!< scene_points_max
+  uint32_t* grid_buckets = nullptr;       //!< kGridBuckets + 1
+  uint32_t* sample = nullptr;             //!< scene_points_max
+  int32_t* labels = nullptr;              //!< scene_points_max
+  uint32_t* queue = nullptr;              //!< scene_points_max
+  uint16_t* votes = nullptr;              //!< ppf_points_max * kPpfAngleBins
+  PoseCandidate* candidates = nullptr;    //!< hypotheses_max vote peaks
+  LocalizedObject* verified = nullptr;    //!< models_max * kClustersPerModel refined hypotheses
+  LocalizedObject* results = nullptr;     //!< objects_max
+  int models_max = 0;
+  uint32_t model_points_max = 0;
+  uint32_t ppf_points_max = 0;
+  uint32_t scene_points_max = 0;
+  uint32_t hypotheses_max = 0;
+  int objects_max = 0;
+};
+
+struct LocalizeParams {
+  float ppf_step_rel = 0.04f;    //!< PPF sampling / distance step as a share of the diameter
+  int ref_stride = 2;            //!< every n-th subsampled scene point is a reference point
+  float cluster_trans_rel = 0.1f;  //!< pose clustering: translation within this share of the diameter
+  float cluster_rot_deg = 15.0f;   //!< ... and rotation within this angle
+  int icp_iterations = 20;
+  float support_tol_m = 0.003f;    //!< a model point is supported by a scene point this close
+  float min_score = 0.3f;          //!< least supported share of the visible model surface
+  int min_support = 40;            //!< least number of supported model samples
+  float free_space_margin_m = 0.004f;  //!< TSDF distance in front of the surface that counts as empty
+  float max_free_space = 0.1f;     //!< most model samples allowed in known free space
+  float max_overlap = 0.3f;        //!< most of a hypothesis' support already claimed by a better one
+  int max_per_model = 16;          //!< top-K per model
+  // bin / floor
+  float floor_tol_m = 0.004f;      //!< points this close to the floor (or below it) are the bin
+  float wall_tol_m = 0.004f;       //!< points this close to a wall (or outside) are the bin
+  float wall_min_share = 0.02f;    //!< a wall holds at least this share of the scene points
+  bool detect_walls = true;
+  bool crop_to_floor = true;       //!< remove everything beyond the floor's extent (bin rims, outside)
+  // model-free segmentation
+  float segment_radius_m = 0.005f;   //!< neighbour distance for region growing
+  float segment_smooth_deg = 15.0f;  //!< neighbours with normals closer than this always join
+  float segment_concave_tol = 0.05f; //!< (n_j - n_i).(p_j - p_i)/|p_j - p_i| above -tol joins (convex)
+  int segment_min_points = 150;      //!< smaller segments are noise (label 0)
+  int segment_colour_tol = 0;        //!< > 0: neighbours whose colours differ by more (sum of |dR|+|dG|+|dB|) do not join
+};
+
+class Localizer {
+ public:
+  //! Binds the static buffers; forgets all models.
+  //! \param buffers regions carved from the memory map
+  Status init(const LocalizeBuffers& buffers);
+
+  //! Start-up: samples a triangle mesh (metres, object frame, counter-clockwise faces seen from
+  //! outside) into the dense and PPF tables and builds the model's hash table.
+  //! \param name base name kept for the output
+  //! \param vertices mesh vertices  \param vertex_count their number
+  //! \param triangles vertex index triples  \param triangle_count their number
+  //! \param params sampling steps
+  //! \param model_index index of the new model
+  //! \return kInvalidArgument for an empty/degenerate mesh or bad indices, kCapacityExceeded when the
+  //!         board holds no more models
+  Status add_model(const char* name, const Vec3f* vertices, std::size_t vertex_count, const uint32_t (*triangles)[3],
+                   std::size_t triangle_count, const LocalizeParams& params, int& model_index);
+  //! Start-up alternative: a model given as an oriented point cloud (e.g. a partial scan).
+  //! \param name base name  \param points samples with unit normals  \param count their number
+  //! \param params sampling steps  \param model_index index of the new model
+  Status add_model_cloud(const char* name, const OrientedPoint* points, std::size_t count,
+                         const LocalizeParams& params, int& model_index);
+
+  int model_count() const { return model_count_; }
+  const ModelInfo& model(int i) const { return b_.models[i]; }
+  const OrientedPoint* model_points(int i) const {
+    return b_.model_points + std::size_t(i) * b_.model_points_max;
+  }
+
+  //! Loads the scene: world points with unit normals (non-finite ones skipped).
+  //! \param points the fused surface (or a cloud with normals)  \param count number of points
+  //! \param context viewpoint (and, when known, the floor)
+  //! \param volume the TSDF the points came from (free-space check), or null for a plain cloud
+  //! \param grid_cell_m nearest-neighbour grid cell (about 2-3 point spacings)
+  Status set_scene(const SurfacePoint* points, std::size_t count, const SceneContext& context,
+                   const TsdfVolume* volume, float grid_cell_m);
+  //! As set_scene for ScenePoints that already carry their source index.
+  Status set_scene_points(const ScenePoint* points, std::size_t count, const SceneContext& context,
+                          const TsdfVolume* volume, float grid_cell_m);
+
+  //! Finds the bin (dominant plane = floor, plus walls perpendicular to it on the floor's
+  //! boundary) and removes its points from the scene. Updates the context.
+  Status remove_bin(const LocalizeParams& params);
+
+  //! Model-based localisation with every loaded model.
+  //! \param params matching and verification settings
+  //! \param max_results at most this many results (<= objects_max)
+  //! \param count results written, in picking order
+  Status localize(const LocalizeParams& params, int max_results, std::size_t& count);
+
+  //! Model-free segmentation of the scene (after remove_bin).
+  //! \param params segmentation settings
+  //! \param max_results at most this many segments (<= objects_max), in picking order
+  //! \param count results written
+  Status segment(const LocalizeParams& params, int max_results, std::size_t& count);
+
+  const LocalizedObject* results() const { return b_.results; }
+  //! Scene points after bin removal and their segment labels (after segment(); 0 = none).
+  std::size_t scene_count() const { return scene_count_; }
+  const ScenePoint* scene() const { return b_.scene; }
+  const int32_t* labels() const { return b_.labels; }
+  const SceneContext& context() const { return ctx_; }
+
+  //! Pose candidates of the last localize() before verification (for diagnostics).
+  std::size_t last_candidates() const { return last_candidates_; }
+
+ private:
+  Status build_ppf_table(int m, const LocalizeParams& params);
+  Status finish_model(const char* name, std::size_t dense, const LocalizeParams& params, int& model_index);
+  void build_grid(float cell_m);
+  //! Nearest scene point within radius (index or -1).
+  int32_t nearest(const Vec3f& q, float radius_m, float& dist2) const;
+  //! Labels every unlabelled scene point within radius of q (claims of an accepted hypothesis).
+  void for_each_within(const Vec3f& q, float radius_m, int32_t label) const;
+  //! Claims the scene points on the visible surface of model m at T.
+  void claim(int m, const Pose& T, const LocalizeParams& params, int32_t label) const;
+  std::size_t subsample_scene(float step_m);
+  //! Labels the scene's connected parts (neighbours within radius) into labels[].
+  void connected_components(float radius_m);
+  std::size_t vote_model(int m, const LocalizeParams& params, std::size_t first_candidate);
+  bool refine(int m, Pose& T, const LocalizeParams& params) const;
+  bool plausible(int m, const Pose& T, const LocalizeParams& params) const;
+  void verify(int m, const Pose& T, const LocalizeParams& params, LocalizedObject& out, int claim_label,
+              float* overlap) const;
+  float free_space_at(const Vec3f& p) const;
+  void sort_picking_order(std::size_t count) const;
+
+  LocalizeBuffers b_;
+  int model_count_ = 0;
+  std::size_t scene_count_ = 0;
+  SceneContext ctx_;
+  const TsdfVolume* volume_ = nullptr;
+  float grid_cell_m_ = 0.005f;
+  float grid_inv_ = 200.0f;
+  std::size_t last_candidates_ = 0;
+};
+
+//! Normals of an organised cloud from its image neighbours (central differences, oriented towards
+//! the camera at the origin); points without valid neighbours get NaN normals.
+//! \param points width x height camera-frame points (NaN = invalid)
+//! \param width  \param height organisation
+//! \param max_jump_m neighbours farther than this (depth discontinuity) are not used
+//! \param normals output, width x height
+void organised_normals(const Vec3f* points, int width, int height, float max_jump_m, Vec3f* normals);
+
+}  // namespace edgefuse

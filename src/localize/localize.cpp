@@ -1,0 +1,277 @@
+// Model-based localisation: vote, cluster the candidates of each model, refine the best clusters by
+// point-to-plane ICP, verify them, then keep the best non-overlapping hypotheses in picking order.
+#include <algorithm>
+#include <cmath>
+
+#include "edgefuse/localize/localizer.hpp"
+#include "edgefuse/math/real.hpp"
+#include "ppf_math.hpp"
+
+namespace edgefuse {
+namespace {
+
+struct Cluster {
+  Pose T;
+  float votes;
+  uint32_t first;  // index of its best candidate (ties: earlier first)
+};
+
+float rot_angle(const Mat3f& A, const Mat3f& B) {
+  const float c = 0.5f * ((A.transpose() * B).trace() - 1.0f);
+  return std::acos(ppf::clamp_unit(c));
+}
+
+// A total order on poses (translation, then rotation) so that sorts need no stability.
+bool pose_less(const Pose& a, const Pose& b) {
+  for (int i = 0; i < 3; ++i)
+    if (a.t[i] != b.t[i]) return a.t[i] < b.t[i];
+  for (int i = 0; i < 9; ++i)
+    if (a.R.data()[i] != b.R.data()[i]) return a.R.data()[i] < b.R.data()[i];
+  return false;
+}
+
+// At most this many model samples take part in ICP and verification (even stride over the table).
+constexpr uint32_t kIcpPoints = 1500;
+constexpr uint32_t kRefinePoints = 1500;  // ICP needs fewer than the verification
+
+}  // namespace
+
+bool Localizer::plausible(int m, const Pose& T, const LocalizeParams& params) const {
+  // Share of ~100 facing samples with a scene point within two PPF steps: far below the final
+  // threshold means ICP cannot rescue the pose.
+  const ModelInfo& info = b_.models[m];
+  const OrientedPoint* dense = model_points(m);
+  const uint32_t stride = info.dense_count > 100 ? info.dense_count / 100 : 1;
+  uint32_t facing = 0, near = 0;
+  const float r = std::max(2.0f * info.ppf_step_m, 2.0f * params.support_tol_m);
+  for (uint32_t i = 0; i < info.dense_count; i += stride) {
+    const Vec3f q = T * dense[i].p;
+    if ((T.R * dense[i].n).dot(ctx_.viewpoint_m - q) <= 0) continue;
+    ++facing;
+    float d2;
+    near += nearest(q, r, d2) >= 0;
+  }
+  return facing > 0 && float(near) >= 0.5f * params.min_score * float(facing);
+}
+
+bool Localizer::refine(int m, Pose& T, const LocalizeParams& params) const {
+  const ModelInfo& info = b_.models[m];
+  const OrientedPoint* dense = model_points(m);
+  // Coarse to fine: the first iterations (large gate) use a quarter of the samples.
+  const uint32_t fine = info.dense_count > kRefinePoints ? (info.dense_count + kRefinePoints - 1) / kRefinePoints : 1;
+  float radius = std::max(2.0f * info.ppf_step_m, 0.01f);
+  const float radius_min = std::max(2.0f * params.support_tol_m, 1.5f * grid_cell_m_ * 0.5f);
+  for (int it = 0; it < params.icp_iterations; ++it) {
+    const uint32_t stride = it < params.icp_iterations / 2 ? 4 * fine : fine;
+    Eigen::Matrix<float, 6, 6> A = Eigen::Matrix<float, 6, 6>::Zero();
+    Eigen::Matrix<float, 6, 1> rhs = Eigen::Matrix<float, 6, 1>::Zero();
+    const Vec3f c = T * info.centre_m;
+    int used = 0;
+    for (uint32_t i = 0; i < info.dense_count; i += stride) {
+      const Vec3f q = T * dense[i].p;
+      const Vec3f n = T.R * dense[i].n;
+      if (n.dot(ctx_.viewpoint_m - q) <= 0) continue;  // faces away from the sensor
+      float d2;
+      const int32_t j = nearest(q, radius, d2);
+      if (j < 0) continue;
+      const ScenePoint& s = b_.scene[j];
+      if (n.dot(s.n) < 0.7f) continue;
+      const float e = (q - s.p).dot(s.n);
+      Eigen::Matrix<float, 6, 1> J;
+      J.head<3>() = (q - c).cross(s.n);
+      J.tail<3>() = s.n;
+      A += J * J.transpose();
+      rhs += J * e;
+      ++used;
+    }
+    if (used < 12) return false;
+    A.diagonal().array() += 1e-6f;
+    const Eigen::Matrix<float, 6, 1> x = A.ldlt().solve(-rhs);
+    if (!x.allFinite()) return false;
+    const Vec3f w = x.head<3>();
+    const float angle = w.norm();
+    const Mat3f dR = angle > 1e-9f ? Mat3f(Eigen::AngleAxisf(angle, w / angle)) : Mat3f::Identity();
+    T.R = dR * T.R;
+    T.t = dR * (T.t - c) + c + x.tail<3>();
+    // Re-orthonormalise (float drift over iterations).
+    const Eigen::Quaternionf q(T.R);
+    T.R = q.normalized().toRotationMatrix();
+    radius = std::max(radius * 0.75f, radius_min);
+    if (angle < 2e-4f && x.tail<3>().norm() < 2e-5f && radius == radius_min) break;  // 0.01 deg, 20 um
+  }
+  return true;
+}
+
+void Localizer::verify(int m, const Pose& T, const LocalizeParams& params, LocalizedObject& out, int claim_label,
+                       float* overlap) const {
+  const ModelInfo& info = b_.models[m];
+  const OrientedPoint* dense = model_points(m);
+  const uint32_t stride = info.dense_count > kIcpPoints ? (info.dense_count + kIcpPoints - 1) / kIcpPoints : 1;
+  uint32_t visible = 0, supported = 0, total = 0, violations = 0, claimed = 0;
+  double res2 = 0;
+  float top = -1e9f, best_grasp = -1e9f;
+  const Vec3f centre = T * info.centre_m;
+  Vec3f grasp = centre, approach = -ctx_.up;
+  for (uint32_t i = 0; i < info.dense_count; i += stride) {
+    const Vec3f q = T * dense[i].p;
+    const Vec3f n = T.R * dense[i].n;
+    ++total;
+    const float height = ctx_.has_floor ? ctx_.up.dot(q) + ctx_.floor_offset : ctx_.up.dot(q);
+    // Known empty space at the sample and 1.5 voxels inside the model: the first alone also fires
+    // at silhouettes, where projective distances along grazing rays overstate free space.
+    const float inset = volume_ ? 1.5f * volume_->voxel_m() : 0.0f;
+    const bool empty = free_space_at(q) > params.free_space_margin_m &&
+                       free_space_at(q - n * inset) > params.free_space_margin_m;
+    if (empty || (ctx_.has_floor && height < -2.0f * params.floor_tol_m)) ++violations;
+    if (n.dot(ctx_.viewpoint_m - q) <= 0) continue;
+    if (ctx_.has_floor && height < params.floor_tol_m) continue;  // the floor contact was removed with the bin
+    if (volume_) {  // an unobserved model point is occluded, not missing
+      const Vec3f g = (q - volume_->origin_m()) / volume_->voxel_m();
+      const int x = floor_int(g.x()), y = floor_int(g.y()), z = floor_int(g.z());
+      if (x < 0 || y < 0 || z < 0 || x >= volume_->dim() || y >= volume_->dim() || z >= volume_->dim()) continue;
+      if (volume_->weight()[volume_->index(x, y, z)] == 0) continue;
+    }
+    ++visible;
+    float d2;
+    const int32_t j = nearest(q, params.support_tol_m, d2);
+    if (j < 0 || n.dot(b_.scene[j].n) < 0.7f) continue;
+    ++supported;
+    const float e = (q - b_.scene[j].p).dot(b_.scene[j].n);
+    res2 += double(e) * e;
+    if (b_.labels[j] != 0 && b_.labels[j] != claim_label) ++claimed;
+    top = std::max(top, height);
+    // Grasp: a top-facing supported point, high and near the object's centre line.
+    const float facing = n.dot(ctx_.up);
+    if (facing > 0.8f) {
+      const Vec3f off = q - centre;
+      const float horiz = (off - ctx_.up * off.dot(ctx_.up)).norm();
+      const float g = height - 0.5f * horiz;
+      if (g > best_grasp) {
+        best_grasp = g;
+        grasp = q;
+        approach = -n;
+      }
+    }
+  }
+  out = LocalizedObject{};
+  out.model = m;
+  out.T_world_object = T;
+  out.score = visible ? float(supported) / float(visible) : 0.0f;
+  out.residual_m = supported ? float(std::sqrt(res2 / double(supported))) : 0.0f;
+  out.free_space = total ? float(violations) / float(total) : 1.0f;
+  out.support = supported;
+  out.top_m = supported ? top : 0.0f;
+  if (best_grasp == -1e9f && supported) grasp = centre;
+  out.grasp_m = grasp;
+  out.approach = approach;
+  out.size_m = 2.0f * info.half_extent_m;
+  if (overlap) *overlap = supported ? float(claimed) / float(supported) : 1.0f;
+}
+
+void Localizer::claim(int m, const Pose& T, const LocalizeParams& params, int32_t label) const {
+  const ModelInfo& info = b_.models[m];
+  const OrientedPoint* dense = model_points(m);
+  // Every dense sample (not the ICP subset), with a radius that closes the gaps between samples.
+  const float r = std::max(params.support_tol_m, 0.75f * info.dense_step_m);
+  for (uint32_t i = 0; i < info.dense_count; ++i) {
+    const Vec3f q = T * dense[i].p;
+    if ((T.R * dense[i].n).dot(ctx_.viewpoint_m - q) <= 0) continue;
+    for_each_within(q, r, label);
+  }
+}
+
+void Localizer::sort_picking_order(std::size_t count) const {
+  // Highest first; an occluded object (low supported share) counts up to 5 cm lower.
+  auto key = [](const LocalizedObject& o) { return o.top_m - 0.05f * (1.0f - std::min(o.score, 1.0f)); };
+  std::sort(b_.results, b_.results + count, [&key](const LocalizedObject& a, const LocalizedObject& b) {
+    if (key(a) != key(b)) return key(a) > key(b);
+    if (a.model != b.model) return a.model < b.model;
+    if (a.segment != b.segment) return a.segment < b.segment;
+    return pose_less(a.T_world_object, b.T_world_object);
+  });
+}
+
+Status Localizer::localize(const LocalizeParams& params, int max_results, std::size_t& count) {
+  count = 0;
+  if (!b_.scene) return Status::kNotInitialised;
+  if (max_results > b_.objects_max) max_results = b_.objects_max;
+  // Point pairs vote only within one connected part of the scene (objects that do not touch do
+  // not vote for each other's poses): fewer pairs, less clutter.
+  connected_components(std::max(2.0f * grid_cell_m_ * 0.5f, params.support_tol_m * 1.5f));
+  std::size_t nverified = 0;
+  last_candidates_ = 0;
+  Cluster clusters[8 * kClustersPerModel];
+  for (int m = 0; m < model_count_ && scene_count_ > 0; ++m) {
+    const ModelInfo& info = b_.models[m];
+    const std::size_t nc = vote_model(m, params, 0);
+    last_candidates_ += nc;
+    // Greedy clustering, strongest candidates first.
+    PoseCandidate* cand = b_.candidates;
+    // std::sort with full tie-breaks (stable_sort would allocate a buffer).
+    std::sort(cand, cand + nc, [](const PoseCandidate& a, const PoseCandidate& b) {
+      if (a.votes != b.votes) return a.votes > b.votes;
+      return pose_less(a.T_world_object, b.T_world_object);
+    });
+    int ncl = 0;
+    const float dt = params.cluster_trans_rel * info.diameter_m;
+    const float dr = params.cluster_rot_deg * ppf::kPi / 180.0f;
+    for (std::size_t k = 0; k < nc; ++k) {
+      int found = -1;
+      for (int c = 0; c < ncl && found < 0; ++c)
+        if ((clusters[c].T.t - cand[k].T_world_object.t).norm() < dt &&
+            rot_angle(clusters[c].T.R, cand[k].T_world_object.R) < dr)
+          found = c;
+      if (found >= 0) clusters[found].votes += cand[k].votes;
+      else if (ncl < 8 * kClustersPerModel) clusters[ncl++] = Cluster{cand[k].T_world_object, cand[k].votes, uint32_t(k)};
+    }
+    std::sort(clusters, clusters + ncl, [](const Cluster& a, const Cluster& b) {
+      return a.votes > b.votes || (a.votes == b.votes && a.first < b.first);
+    });
+    // Refine the strongest clusters, at most 3 per neighbourhood (half a diameter): a large curved
+    // object attracts many clusters of every model; the others must still get their turn.
+    int refined = 0;
+    for (int c = 0; c < ncl && refined < kClustersPerModel; ++c) {
+      int near = 0;
+      for (int p = 0; p < c; ++p)
+        near += clusters[p].votes >= 0 && (clusters[p].T.t - clusters[c].T.t).norm() < 0.5f * info.diameter_m;
+      if (near < 3 && !plausible(m, clusters[c].T, params)) near = 3;  // cheap pre-check before ICP
+      if (near >= 3) {
+        clusters[c].votes = -1;  // skipped: does not count as refined
+        continue;
+      }
+      ++refined;
+      Pose T = clusters[c].T;
+      if (!refine(m, T, params)) continue;
+      LocalizedObject h;
+      verify(m, T, params, h, -1, nullptr);
+      if (h.score < params.min_score || h.support < uint32_t(params.min_support) || h.free_space > params.max_free_space)
+        continue;
+      if (nverified < std::size_t(b_.models_max) * kClustersPerModel) b_.verified[nverified++] = h;
+    }
+  }
+  // Best first (explained surface x supported share); a hypothesis whose support is mostly claimed
+  // by a better one is a duplicate (or a symmetric twin) or a conflicting explanation.
+  std::sort(b_.verified, b_.verified + nverified, [](const LocalizedObject& a, const LocalizedObject& b) {
+    const float qa = float(a.support) * a.score, qb = float(b.support) * b.score;
+    if (qa != qb) return qa > qb;
+    if (a.model != b.model) return a.model < b.model;
+    return pose_less(a.T_world_object, b.T_world_object);
+  });
+  for (std::size_t i = 0; i < scene_count_; ++i) b_.labels[i] = 0;  // now: claims of accepted poses
+  int per_model[64] = {};
+  for (std::size_t k = 0; k < nverified && count < std::size_t(max_results); ++k) {
+    const LocalizedObject& h = b_.verified[k];
+    if (h.model < 64 && per_model[h.model] >= params.max_per_model) continue;
+    LocalizedObject tmp;
+    float overlap = 0;
+    verify(h.model, h.T_world_object, params, tmp, -1, &overlap);
+    if (overlap > params.max_overlap) continue;
+    claim(h.model, h.T_world_object, params, int32_t(count) + 1);
+    b_.results[count++] = h;
+    if (h.model < 64) ++per_model[h.model];
+  }
+  sort_picking_order(count);
+  return Status::kOk;
+}
+
+}  // namespace edgefuse

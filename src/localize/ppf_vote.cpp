@@ -1,0 +1,66 @@
+// Point pair feature voting (Drost et al. 2010): every ref_stride-th subsampled scene point is a
+// reference; its pairs with the subsampled scene points within the model diameter look up the
+// model table and vote for (model reference point, alpha); the peak gives one pose candidate.
+#include <cmath>
+#include <cstring>
+
+#include "edgefuse/localize/localizer.hpp"
+#include "ppf_math.hpp"
+
+namespace edgefuse {
+
+std::size_t Localizer::vote_model(int m, const LocalizeParams& params, std::size_t first) {
+  const ModelInfo& info = b_.models[m];
+  const OrientedPoint* sparse = b_.ppf_points + std::size_t(m) * b_.ppf_points_max;
+  const uint32_t* buckets = b_.ppf_buckets + std::size_t(m) * (kPpfBuckets + 1);
+  const PpfEntry* entries = b_.ppf_entries + std::size_t(m) * b_.ppf_points_max * (b_.ppf_points_max - 1);
+  const std::size_t ns = subsample_scene(info.ppf_step_m);
+  const float inv_step = 1.0f / info.ppf_step_m;
+  const float max_d = info.diameter_m;
+  const std::size_t acc_size = std::size_t(info.ppf_count) * kPpfAngleBins;
+  const float bin_scale = float(kPpfAngleBins) / (2.0f * ppf::kPi);
+  std::size_t out = first;
+  const int stride = params.ref_stride > 0 ? params.ref_stride : 1;
+  for (std::size_t r = 0; r < ns && out < b_.hypotheses_max; r += std::size_t(stride)) {
+    const ScenePoint& sr = b_.scene[b_.sample[r]];
+    const Mat3f R_sg = ppf::align_to_x(sr.n);
+    std::memset(b_.votes, 0, acc_size * sizeof(uint16_t));
+    const int32_t component = b_.labels[b_.sample[r]];
+    for (std::size_t i = 0; i < ns; ++i) {
+      if (i == r || b_.labels[b_.sample[i]] != component) continue;  // pairs within one connected part
+      const ScenePoint& si = b_.scene[b_.sample[i]];
+      uint32_t key;
+      if (!ppf::feature_key(sr.p, sr.n, si.p, si.n, inv_step, max_d, key)) continue;
+      const uint32_t bk = ppf::bucket_of(key);
+      const uint32_t e0 = buckets[bk], e1 = buckets[bk + 1];
+      if (e0 == e1) continue;
+      const float alpha_s = ppf::alpha_of(R_sg, sr.p, si.p);
+      for (uint32_t e = e0; e < e1; ++e) {
+        if (entries[e].key != key) continue;
+        float a = ppf::alpha_from_q(entries[e].alpha_q) - alpha_s;
+        int bin = floor_int((a + ppf::kPi) * bin_scale);
+        bin = ((bin % kPpfAngleBins) + kPpfAngleBins) % kPpfAngleBins;
+        uint16_t& v = b_.votes[std::size_t(entries[e].ref) * kPpfAngleBins + std::size_t(bin)];
+        if (v < 65535) ++v;
+      }
+    }
+    std::size_t best = 0;
+    uint16_t best_v = 0;
+    for (std::size_t k = 0; k < acc_size; ++k)
+      if (b_.votes[k] > best_v) {
+        best_v = b_.votes[k];
+        best = k;
+      }
+    if (best_v < 3) continue;
+    const OrientedPoint& mr = sparse[best / kPpfAngleBins];
+    const float alpha = (float(best % kPpfAngleBins) + 0.5f) / bin_scale - ppf::kPi;
+    PoseCandidate& c = b_.candidates[out++];
+    c.T_world_object.R = R_sg.transpose() * ppf::rot_x(alpha) * ppf::align_to_x(mr.n);
+    c.T_world_object.t = sr.p - c.T_world_object.R * mr.p;
+    c.votes = float(best_v);
+    c.model = m;
+  }
+  return out - first;
+}
+
+}  // namespace edgefuse

@@ -1,0 +1,148 @@
+// The scene: points with normals copied into the static scene table, a hashed uniform grid for
+// nearest-neighbour queries, voxel-grid subsampling, and the TSDF free-space lookup.
+#include <cmath>
+#include <cstring>
+
+#include "edgefuse/localize/localizer.hpp"
+#include "edgefuse/math/real.hpp"
+#include "sort_keys.hpp"
+
+namespace edgefuse {
+namespace {
+
+inline uint32_t grid_hash(int32_t x, int32_t y, int32_t z) {
+  return (uint32_t(x) * 73856093u ^ uint32_t(y) * 19349663u ^ uint32_t(z) * 83492791u) & (kGridBuckets - 1);
+}
+
+}  // namespace
+
+Status Localizer::set_scene(const SurfacePoint* points, std::size_t count, const SceneContext& context,
+                            const TsdfVolume* volume, float grid_cell_m) {
+  if (!b_.scene) return Status::kNotInitialised;
+  if (!(grid_cell_m > 0)) return Status::kInvalidArgument;
+  std::size_t n = 0;
+  Status s = Status::kOk;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!points[i].position.allFinite() || !points[i].normal.allFinite()) continue;
+    if (n >= b_.scene_points_max) {
+      s = Status::kOutputTruncated;
+      break;
+    }
+    b_.scene[n++] = ScenePoint{points[i].position, points[i].normal, uint32_t(i), points[i].colour};
+  }
+  scene_count_ = n;
+  ctx_ = context;
+  volume_ = volume;
+  build_grid(grid_cell_m);
+  return s;
+}
+
+Status Localizer::set_scene_points(const ScenePoint* points, std::size_t count, const SceneContext& context,
+                                   const TsdfVolume* volume, float grid_cell_m) {
+  if (!b_.scene) return Status::kNotInitialised;
+  if (!(grid_cell_m > 0)) return Status::kInvalidArgument;
+  std::size_t n = 0;
+  Status s = Status::kOk;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!points[i].p.allFinite() || !points[i].n.allFinite()) continue;
+    if (n >= b_.scene_points_max) {
+      s = Status::kOutputTruncated;
+      break;
+    }
+    b_.scene[n++] = points[i];
+  }
+  scene_count_ = n;
+  ctx_ = context;
+  volume_ = volume;
+  build_grid(grid_cell_m);
+  return s;
+}
+
+void Localizer::build_grid(float cell_m) {
+  grid_cell_m_ = cell_m;
+  grid_inv_ = 1.0f / cell_m;
+  uint32_t* buckets = b_.grid_buckets;
+  std::memset(buckets, 0, sizeof(uint32_t) * (kGridBuckets + 1));
+  for (std::size_t i = 0; i < scene_count_; ++i) {
+    const Vec3f& p = b_.scene[i].p;
+    ++buckets[grid_hash(floor_int(p.x() * grid_inv_), floor_int(p.y() * grid_inv_), floor_int(p.z() * grid_inv_)) + 1];
+  }
+  for (uint32_t k = 0; k < kGridBuckets; ++k) buckets[k + 1] += buckets[k];
+  for (std::size_t i = 0; i < scene_count_; ++i) {
+    const Vec3f& p = b_.scene[i].p;
+    const uint32_t h =
+        grid_hash(floor_int(p.x() * grid_inv_), floor_int(p.y() * grid_inv_), floor_int(p.z() * grid_inv_));
+    b_.grid_index[buckets[h]++] = uint32_t(i);
+  }
+  for (uint32_t k = kGridBuckets; k > 0; --k) buckets[k] = buckets[k - 1];
+  buckets[0] = 0;
+}
+
+int32_t Localizer::nearest(const Vec3f& q, float radius_m, float& dist2) const {
+  const int32_t cx = floor_int(q.x() * grid_inv_), cy = floor_int(q.y() * grid_inv_), cz = floor_int(q.z() * grid_inv_);
+  const int k = int(std::ceil(radius_m * grid_inv_));
+  float best = radius_m * radius_m;
+  int32_t best_i = -1;
+  // Rings of cells by Chebyshev distance; a point in ring R+1 is at least R cells away, so the
+  // search stops as soon as the best distance is within that.
+  for (int ring = 0; ring <= k; ++ring) {
+    for (int dz = -ring; dz <= ring; ++dz)
+      for (int dy = -ring; dy <= ring; ++dy) {
+        const bool face = dz == -ring || dz == ring || dy == -ring || dy == ring;
+        for (int dx = -ring; dx <= ring; dx += (face || ring == 0) ? 1 : 2 * ring) {
+          const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
+          for (uint32_t j = b_.grid_buckets[h]; j < b_.grid_buckets[h + 1]; ++j) {
+            const uint32_t i = b_.grid_index[j];
+            const float d2 = (b_.scene[i].p - q).squaredNorm();
+            if (d2 < best || (d2 == best && best_i >= 0 && int32_t(i) < best_i)) {
+              best = d2;
+              best_i = int32_t(i);
+            }
+          }
+        }
+      }
+    const float reach = float(ring) * grid_cell_m_;
+    if (best_i >= 0 && best <= reach * reach) break;
+  }
+  dist2 = best;
+  return best_i;
+}
+
+void Localizer::for_each_within(const Vec3f& q, float radius_m, int32_t label) const {
+  const int32_t cx = floor_int(q.x() * grid_inv_), cy = floor_int(q.y() * grid_inv_), cz = floor_int(q.z() * grid_inv_);
+  const int k = int(std::ceil(radius_m * grid_inv_));
+  const float r2 = radius_m * radius_m;
+  for (int dz = -k; dz <= k; ++dz)
+    for (int dy = -k; dy <= k; ++dy)
+      for (int dx = -k; dx <= k; ++dx) {
+        const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
+        for (uint32_t j = b_.grid_buckets[h]; j < b_.grid_buckets[h + 1]; ++j) {
+          const uint32_t i = b_.grid_index[j];
+          if (b_.labels[i] == 0 && (b_.scene[i].p - q).squaredNorm() <= r2) b_.labels[i] = label;
+        }
+      }
+}
+
+std::size_t Localizer::subsample_scene(float step_m) {
+  KeyIndex* keys = reinterpret_cast<KeyIndex*>(b_.scratch);
+  const float inv = 1.0f / step_m;
+  for (std::size_t i = 0; i < scene_count_; ++i) keys[i] = KeyIndex{cell_key(b_.scene[i].p, inv), i};
+  sort_key_index(keys, scene_count_);
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < scene_count_; ++i)
+    if (i == 0 || keys[i].key != keys[i - 1].key) b_.sample[n++] = uint32_t(keys[i].index);
+  return n;
+}
+
+float Localizer::free_space_at(const Vec3f& p) const {
+  if (!volume_) return 0;
+  const TsdfVolume& v = *volume_;
+  const Vec3f g = (p - v.origin_m()) / v.voxel_m();
+  const int x = floor_int(g.x()), y = floor_int(g.y()), z = floor_int(g.z());
+  if (x < 0 || y < 0 || z < 0 || x >= v.dim() || y >= v.dim() || z >= v.dim()) return 0;
+  const std::size_t i = v.index(x, y, z);
+  if (v.weight()[i] == 0) return 0;
+  return float(v.tsdf()[i]) * (v.params().trunc_m / 32767.0f);
+}
+
+}  // namespace edgefuse

@@ -1,0 +1,181 @@
+// Model-free segments: region growing over the scene left after bin removal. Neighbours (within
+// segment_radius_m) join when their normals agree (smooth surface) or when the connection is
+// convex ((n_j - n_i) . (p_j - p_i) >= 0, as at a box edge); a concave connection (a box resting
+// on another, two parts touching) separates segments. Each segment gets an oriented box (PCA),
+// a grasp point on its top surface and the approach direction.
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include "edgefuse/localize/localizer.hpp"
+#include "edgefuse/math/real.hpp"
+
+namespace edgefuse {
+namespace {
+
+inline uint32_t grid_hash(int32_t x, int32_t y, int32_t z) {
+  return (uint32_t(x) * 73856093u ^ uint32_t(y) * 19349663u ^ uint32_t(z) * 83492791u) & (kGridBuckets - 1);
+}
+
+float picking_key(const LocalizedObject& o) { return o.top_m - 0.05f * (1.0f - std::min(o.score, 1.0f)); }
+
+}  // namespace
+
+void Localizer::connected_components(float radius_m) {
+  const std::size_t n = scene_count_;
+  for (std::size_t i = 0; i < n; ++i) b_.labels[i] = 0;
+  const float r2 = radius_m * radius_m;
+  const int k = int(std::ceil(radius_m * grid_inv_));
+  std::size_t tail = 0;
+  int32_t label = 0;
+  for (std::size_t seed = 0; seed < n; ++seed) {
+    if (b_.labels[seed] != 0) continue;
+    ++label;
+    const std::size_t start = tail;
+    b_.labels[seed] = label;
+    b_.queue[tail++] = uint32_t(seed);
+    for (std::size_t head = start; head < tail; ++head) {
+      const Vec3f p = b_.scene[b_.queue[head]].p;
+      const int32_t cx = floor_int(p.x() * grid_inv_), cy = floor_int(p.y() * grid_inv_), cz = floor_int(p.z() * grid_inv_);
+      for (int dz = -k; dz <= k; ++dz)
+        for (int dy = -k; dy <= k; ++dy)
+          for (int dx = -k; dx <= k; ++dx) {
+            const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
+            for (uint32_t e = b_.grid_buckets[h]; e < b_.grid_buckets[h + 1]; ++e) {
+              const uint32_t j = b_.grid_index[e];
+              if (b_.labels[j] != 0 || (b_.scene[j].p - p).squaredNorm() > r2) continue;
+              b_.labels[j] = label;
+              b_.queue[tail++] = j;
+            }
+          }
+    }
+  }
+}
+
+Status Localizer::segment(const LocalizeParams& params, int max_results, std::size_t& count) {
+  count = 0;
+  if (!b_.scene) return Status::kNotInitialised;
+  if (max_results > b_.objects_max) max_results = b_.objects_max;
+  const std::size_t n = scene_count_;
+  for (std::size_t i = 0; i < n; ++i) b_.labels[i] = 0;
+  const float r = params.segment_radius_m, r2 = r * r;
+  const float cos_smooth = std::cos(params.segment_smooth_deg * 3.14159265f / 180.0f);
+  const int k = int(std::ceil(r * grid_inv_));
+  std::size_t tail = 0;
+  int32_t label = 0;
+  for (std::size_t seed = 0; seed < n; ++seed) {
+    if (b_.labels[seed] != 0) continue;
+    ++label;
+    const std::size_t start = tail;
+    b_.labels[seed] = label;
+    b_.queue[tail++] = uint32_t(seed);
+    for (std::size_t head = start; head < tail; ++head) {
+      const ScenePoint& a = b_.scene[b_.queue[head]];
+      const int32_t cx = floor_int(a.p.x() * grid_inv_), cy = floor_int(a.p.y() * grid_inv_),
+                    cz = floor_int(a.p.z() * grid_inv_);
+      for (int dz = -k; dz <= k; ++dz)
+        for (int dy = -k; dy <= k; ++dy)
+          for (int dx = -k; dx <= k; ++dx) {
+            const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
+            for (uint32_t e = b_.grid_buckets[h]; e < b_.grid_buckets[h + 1]; ++e) {
+              const uint32_t j = b_.grid_index[e];
+              if (b_.labels[j] != 0) continue;
+              const ScenePoint& c = b_.scene[j];
+              const Vec3f d = c.p - a.p;
+              const float dd = d.squaredNorm();
+              if (dd > r2 || !(dd > 0)) continue;
+              const bool smooth = a.n.dot(c.n) > cos_smooth;
+              const bool convex = (c.n - a.n).dot(d) >= -params.segment_concave_tol * std::sqrt(dd);
+              if (!smooth && !convex) continue;
+              if (params.segment_colour_tol > 0 && a.colour.a && c.colour.a &&
+                  std::abs(int(a.colour.r) - int(c.colour.r)) + std::abs(int(a.colour.g) - int(c.colour.g)) +
+                          std::abs(int(a.colour.b) - int(c.colour.b)) >
+                      params.segment_colour_tol)
+                continue;
+              b_.labels[j] = label;
+              b_.queue[tail++] = j;
+            }
+          }
+    }
+    // The segment is queue[start, tail): keep it if large enough.
+    const std::size_t size = tail - start;
+    if (size < std::size_t(params.segment_min_points)) continue;
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (std::size_t q = start; q < tail; ++q) mean += b_.scene[b_.queue[q]].p.cast<double>();
+    mean /= double(size);
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (std::size_t q = start; q < tail; ++q) {
+      const Eigen::Vector3d v = b_.scene[b_.queue[q]].p.cast<double>() - mean;
+      cov += v * v.transpose();
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+    Mat3f R = es.eigenvectors().cast<float>();  // columns: smallest .. largest spread
+    // Box axes: x = largest spread, z = the remaining axis turned towards `up`, right-handed.
+    Vec3f ax = R.col(2), az = R.col(0);
+    if (az.dot(ctx_.up) < 0) az = -az;
+    Vec3f ay = az.cross(ax);
+    Mat3f B;
+    B.col(0) = ax;
+    B.col(1) = ay;
+    B.col(2) = az;
+    Vec3f lo = Vec3f::Constant(1e9f), hi = Vec3f::Constant(-1e9f);
+    const Vec3f c = mean.cast<float>();
+    float top = -1e9f, best_g = -1e9f;
+    Vec3f grasp = c, approach = -ctx_.up;
+    for (std::size_t q = start; q < tail; ++q) {
+      const ScenePoint& s = b_.scene[b_.queue[q]];
+      const Vec3f l = B.transpose() * (s.p - c);
+      lo = lo.cwiseMin(l);
+      hi = hi.cwiseMax(l);
+      const float height = ctx_.has_floor ? ctx_.up.dot(s.p) + ctx_.floor_offset : ctx_.up.dot(s.p);
+      top = std::max(top, height);
+      if (s.n.dot(ctx_.up) > 0.8f) {
+        const Vec3f off = s.p - c;
+        const float g = height - 0.5f * (off - ctx_.up * off.dot(ctx_.up)).norm();
+        if (g > best_g) {
+          best_g = g;
+          grasp = s.p;
+          approach = -s.n;
+        }
+      }
+    }
+    if (best_g == -1e9f) {  // no top-facing surface: the highest point, approached from above
+      for (std::size_t q = start; q < tail; ++q) {
+        const ScenePoint& s = b_.scene[b_.queue[q]];
+        const float height = ctx_.has_floor ? ctx_.up.dot(s.p) + ctx_.floor_offset : ctx_.up.dot(s.p);
+        if (height >= top) grasp = s.p;
+      }
+    }
+    LocalizedObject o;
+    o.model = -1;
+    o.segment = label;
+    o.T_world_object.R = B;
+    o.T_world_object.t = c + B * (0.5f * (lo + hi));
+    o.score = 1.0f;
+    o.grasp_m = grasp;
+    o.approach = approach;
+    o.size_m = hi - lo;
+    o.top_m = top;
+    o.support = uint32_t(size);
+    if (count < std::size_t(max_results)) {
+      b_.results[count++] = o;
+    } else {  // full: replace the last in picking order if this one comes earlier
+      std::size_t worst = 0;
+      for (std::size_t w = 1; w < count; ++w)
+        if (picking_key(b_.results[w]) < picking_key(b_.results[worst])) worst = w;
+      if (picking_key(o) > picking_key(b_.results[worst])) b_.results[worst] = o;
+    }
+  }
+  sort_picking_order(count);
+  // Labels: picking rank (1 = first) for reported segments, 0 for the rest. `sample` maps raw labels.
+  for (int32_t l = 0; l <= label && std::size_t(l) < b_.scene_points_max; ++l) b_.sample[l] = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    b_.sample[b_.results[i].segment] = uint32_t(i + 1);
+    b_.results[i].segment = int(i + 1);
+  }
+  for (std::size_t i = 0; i < n; ++i) b_.labels[i] = int32_t(b_.sample[b_.labels[i]]);
+  return Status::kOk;
+}
+
+}  // namespace edgefuse

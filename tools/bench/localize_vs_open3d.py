@@ -1,0 +1,155 @@
+#!/usr/bin/python3
+"""Localisation benchmark (issue 5): edgefuse localize vs Open3D 0.16 global registration
+(FPFH + RANSAC + point-to-plane ICP) on the same inputs in one run.
+
+  /usr/bin/python3 tools/bench/localize_vs_open3d.py [--build build/host] [--data ../shared/data]
+
+- bin_rig_a: all objects (xtion fused at ground-truth poses); recall at 5 mm/5 deg, 10 mm/10 deg,
+  ADD(-S), median errors (edgefuse eval poses) and time from the last integrated frame to the pose list.
+  Open3D gets the same scene (the fused surface after edgefuse's bin removal) and, per model, as many
+  RANSAC rounds as the model has instances (explained points removed between rounds).
+- pcl_milk_recognition: the milk model in its scene (true pose = identity).
+- mosd_learn: model-free segmentation precision / recall against the labels (all 23 scenes).
+- lmo_can_frame: the can (bin_rig_a's metre-scaled copy of obj_000005) in the LM-O frame: score, residual.
+"""
+import argparse, os, re, subprocess, sys, time, tempfile
+import numpy as np
+import open3d as o3d
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--build", default="build/host")
+ap.add_argument("--data", default=os.environ.get("EDGEFUSE_SHARED_DATA", "../shared/data"))
+a = ap.parse_args()
+EF = os.path.join(a.build, "tools", "edgefuse")
+tmp = tempfile.mkdtemp(prefix="ef_loc_")
+
+
+def run(args):
+    r = subprocess.run([EF] + args, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit("edgefuse %s failed:\n%s%s" % (" ".join(args), r.stdout, r.stderr))
+    return r.stdout
+
+
+def kv(text, key):
+    m = re.search(r"\b%s=([-\d.naN/]+)" % key, text)
+    return m.group(1) if m else "?"
+
+
+def quat_of(R):
+    q = np.empty(4)
+    t = np.trace(R)
+    if t > 0:
+        s = np.sqrt(t + 1.0) * 2; q[3] = 0.25 * s
+        q[0] = (R[2, 1] - R[1, 2]) / s; q[1] = (R[0, 2] - R[2, 0]) / s; q[2] = (R[1, 0] - R[0, 1]) / s
+    else:
+        i = np.argmax(np.diag(R)); j, k = (i + 1) % 3, (i + 2) % 3
+        s = np.sqrt(1.0 + R[i, i] - R[j, j] - R[k, k]) * 2
+        q[i] = 0.25 * s; q[3] = (R[k, j] - R[j, k]) / s
+        q[j] = (R[j, i] + R[i, j]) / s; q[k] = (R[k, i] + R[i, k]) / s
+    return q if q[3] >= 0 else -q
+
+
+def o3d_localize(scene, models, voxel):
+    """models: list of (name, mesh path, instances). Returns pose lines and CPU seconds."""
+    t0 = time.process_time()
+    lines = []
+    pts = np.asarray(scene.points)
+    alive = np.ones(len(pts), bool)
+    for name, path, count in models:
+        mesh = o3d.io.read_triangle_mesh(path)
+        src = mesh.sample_points_uniformly(4000, use_triangle_normal=True).voxel_down_sample(voxel)
+        src.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=2 * voxel, max_nn=30))
+        src_f = o3d.pipelines.registration.compute_fpfh_feature(src, o3d.geometry.KDTreeSearchParamHybrid(radius=5 * voxel, max_nn=100))
+        for k in range(count):
+            cur = scene.select_by_index(np.nonzero(alive)[0])
+            down = cur.voxel_down_sample(voxel)
+            down.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=2 * voxel, max_nn=30))
+            f = o3d.pipelines.registration.compute_fpfh_feature(down, o3d.geometry.KDTreeSearchParamHybrid(radius=5 * voxel, max_nn=100))
+            res = o3d.pipelines.registration.registration_ransac_based_on_feature_matching(
+                src, down, src_f, f, True, 1.5 * voxel,
+                o3d.pipelines.registration.TransformationEstimationPointToPoint(False), 3,
+                [o3d.pipelines.registration.CorrespondenceCheckerBasedOnEdgeLength(0.9),
+                 o3d.pipelines.registration.CorrespondenceCheckerBasedOnDistance(1.5 * voxel)],
+                o3d.pipelines.registration.RANSACConvergenceCriteria(100000, 0.999))
+            icp = o3d.pipelines.registration.registration_icp(
+                src, cur, 0.5 * voxel, res.transformation, o3d.pipelines.registration.TransformationEstimationPointToPlane())
+            T = icp.transformation
+            q = quat_of(T[:3, :3])
+            lines.append("%d %.9f %.9f %.9f %.9f %.9f %.9f %.9f %.4f %s" % (len(lines) + 1, T[0, 3], T[1, 3], T[2, 3], q[0], q[1], q[2], q[3], icp.fitness, name))
+            # remove the explained points before the next instance
+            moved = o3d.geometry.PointCloud(src).transform(T)
+            d = np.asarray(scene.compute_point_cloud_distance(moved))
+            alive &= d > 2 * voxel
+    return lines, time.process_time() - t0
+
+
+print("edgefuse localize vs Open3D %s, %s" % (o3d.__version__, time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())))
+# ---------------------------------------------------------------- bin_rig_a
+rig = os.path.join(a.data, "bin_rig_a")
+names = ["box.ply", "bracket.ply", "can.ply", "cylinder.ply"]
+margs = sum([["--model", os.path.join(rig, "models", n)] for n in names], [])
+est = os.path.join(tmp, "rig_est.txt")
+scene_ply = os.path.join(tmp, "rig_scene.ply")
+out = run(["localize", rig] + margs + ["--out", est, "--scene-out", scene_ply])
+ev = run(["eval", "poses", est, os.path.join(rig, "objects.txt")])
+print("\n== bin_rig_a (6 objects, 4 models; xtion fused at ground truth) ==")
+print("edgefuse: recall 5mm/5deg %s, 10mm/10deg %s, ADD(-S) %s, found %s, median %s mm / %s deg, last frame -> pose list %s ms CPU (%s ms wall)"
+      % (kv(ev, "recall_5mm5deg"), kv(ev, "recall_10mm10deg"), kv(ev, "add_recall"), kv(ev, "found"), kv(ev, "median_t_mm"),
+         kv(ev, "median_r_deg"), kv(out, "localize_cpu_ms"), kv(out, "localize_wall_ms")))
+instances = {"box.ply": 2, "bracket.ply": 2, "can.ply": 1, "cylinder.ply": 1}
+scene = o3d.io.read_point_cloud(scene_ply)
+lines, secs = o3d_localize(scene, [(n, os.path.join(rig, "models", n), instances[n]) for n in names], 0.004)
+o3d_est = os.path.join(tmp, "rig_o3d.txt")
+open(o3d_est, "w").write("\n".join(lines) + "\n")
+ev2 = run(["eval", "poses", o3d_est, os.path.join(rig, "objects.txt")])
+print("open3d  : recall 5mm/5deg %s, 10mm/10deg %s, ADD(-S) %s, found %s, median %s mm / %s deg, %.0f ms CPU (matching only, same scene)"
+      % (kv(ev2, "recall_5mm5deg"), kv(ev2, "recall_10mm10deg"), kv(ev2, "add_recall"), kv(ev2, "found"), kv(ev2, "median_t_mm"),
+         kv(ev2, "median_r_deg"), secs * 1e3))
+# ---------------------------------------------------------------- milk
+milk = os.path.join(a.data, "pcl_milk_recognition", "milk_recognition")
+est = os.path.join(tmp, "milk.txt")
+out = run(["localize", os.path.join(milk, "milk_cartoon_all_small_clorox.pcd"), "--model", os.path.join(milk, "milk.pcd"),
+           "--max", "1", "--out", est, "--scene-out", os.path.join(tmp, "milk_scene.ply")])
+v = [float(x) for x in open(est).read().split("\n")[1].split()[1:9]]
+ang = 2 * np.degrees(np.arccos(min(1.0, abs(v[6]))))
+print("\n== pcl_milk_recognition (true pose identity) ==")
+print("edgefuse: t error %.2f mm, r error %.2f deg, score %s, %s ms CPU" % (np.linalg.norm(v[:3]) * 1e3, ang, open(est).read().split("\n")[1].split()[8], kv(out, "localize_cpu_ms")))
+sc = o3d.io.read_point_cloud(os.path.join(tmp, "milk_scene.ply"))
+t0 = time.process_time()
+mp = o3d.io.read_point_cloud(os.path.join(milk, "milk.pcd"))
+vox = 0.005
+src = mp.voxel_down_sample(vox); src.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=2 * vox, max_nn=30))
+dst = sc.voxel_down_sample(vox); dst.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=2 * vox, max_nn=30))
+fs = o3d.pipelines.registration.compute_fpfh_feature(src, o3d.geometry.KDTreeSearchParamHybrid(radius=5 * vox, max_nn=100))
+fd = o3d.pipelines.registration.compute_fpfh_feature(dst, o3d.geometry.KDTreeSearchParamHybrid(radius=5 * vox, max_nn=100))
+res = o3d.pipelines.registration.registration_ransac_based_on_feature_matching(src, dst, fs, fd, True, 1.5 * vox,
+      o3d.pipelines.registration.TransformationEstimationPointToPoint(False), 3,
+      [o3d.pipelines.registration.CorrespondenceCheckerBasedOnEdgeLength(0.9), o3d.pipelines.registration.CorrespondenceCheckerBasedOnDistance(1.5 * vox)],
+      o3d.pipelines.registration.RANSACConvergenceCriteria(100000, 0.999))
+icp = o3d.pipelines.registration.registration_icp(src, dst, 0.5 * vox, res.transformation, o3d.pipelines.registration.TransformationEstimationPointToPlane())
+T = icp.transformation
+ang = np.degrees(np.arccos(np.clip((np.trace(T[:3, :3]) - 1) / 2, -1, 1)))
+print("open3d  : t error %.2f mm, r error %.2f deg, fitness %.3f, %.0f ms CPU" % (np.linalg.norm(T[:3, 3]) * 1e3, ang, icp.fitness, (time.process_time() - t0) * 1e3))
+# ---------------------------------------------------------------- mOSD
+mosd = os.path.join(a.data, "mosd_learn")
+P, R, n, ms = [], [], 0, []
+for f in sorted(os.listdir(mosd)):
+    if not f.endswith(".pcd"):
+        continue
+    lab = os.path.join(tmp, "seg_" + f)
+    out = run(["localize", os.path.join(mosd, f), "--segments", "--no-walls", "--out", lab])
+    ms.append(float(kv(out, "localize_cpu_ms")))
+    ev = run(["eval", "segments", lab, os.path.join(mosd, f)])
+    for m in re.finditer(r"precision ([\d.]+) recall ([\d.]+)", ev):
+        P.append(float(m.group(1))); R.append(float(m.group(2)))
+    n += 1
+print("\n== mosd_learn (%d scenes, %d objects, model-free) ==" % (n, len(P)))
+print("edgefuse: per-object segmentation precision %.3f, recall %.3f (means); %.0f ms CPU per scene (median)" % (np.mean(P), np.mean(R), np.median(ms)))
+# ---------------------------------------------------------------- LM-O
+lmo = os.path.join(a.data, "lmo_can_frame")
+est = os.path.join(tmp, "lmo.txt")
+out = run(["localize", lmo, "--model", os.path.join(rig, "models", "can.ply"), "--max", "1", "--out", est])
+line = [l for l in out.split("\n") if "can.ply t" in l]
+print("\n== lmo_can_frame (no ground truth; CAD can, metres) ==")
+print("edgefuse: " + (re.sub(r" grasp.*", "", line[0]) if line else "no pose above the score threshold") + ", %s ms CPU" % kv(out, "localize_cpu_ms"))

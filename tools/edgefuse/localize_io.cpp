@@ -1,0 +1,179 @@
+#include "localize_io.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <cstdio>
+#include <unordered_map>
+
+#include "edgefuse/io/pcd.hpp"
+#include "edgefuse/io/ply.hpp"
+
+namespace edgefuse::cli {
+namespace {
+
+bool ends_with(const std::string& s, const char* e) {
+  const std::size_t n = std::char_traits<char>::length(e);
+  return s.size() >= n && s.compare(s.size() - n, n, e) == 0;
+}
+
+std::string base_name(const std::string& p) {
+  const std::size_t s = p.find_last_of('/');
+  return s == std::string::npos ? p : p.substr(s + 1);
+}
+
+int64_t cell_of(const Vec3f& p, float inv) {
+  const int64_t x = int64_t(std::floor(p.x() * inv)) & 0x1FFFFF, y = int64_t(std::floor(p.y() * inv)) & 0x1FFFFF,
+                z = int64_t(std::floor(p.z() * inv)) & 0x1FFFFF;
+  return (z << 42) | (y << 21) | x;
+}
+
+}  // namespace
+
+void estimate_normals_pca(const std::vector<Vec3f>& points, float radius_m, const Vec3f& viewpoint,
+                          std::vector<Vec3f>& normals) {
+  const float inv = 1.0f / radius_m;
+  std::unordered_map<int64_t, std::vector<uint32_t>> grid;
+  for (uint32_t i = 0; i < points.size(); ++i)
+    if (points[i].allFinite()) grid[cell_of(points[i], inv)].push_back(i);
+  normals.assign(points.size(), Vec3f::Constant(std::nanf("")));
+  for (uint32_t i = 0; i < points.size(); ++i) {
+    const Vec3f& p = points[i];
+    if (!p.allFinite()) continue;
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    int n = 0;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const auto it = grid.find(cell_of(p + Vec3f(float(dx), float(dy), float(dz)) * radius_m, inv));
+          if (it == grid.end()) continue;
+          for (uint32_t j : it->second) {
+            if ((points[j] - p).squaredNorm() > radius_m * radius_m) continue;
+            const Eigen::Vector3d q = points[j].cast<double>();
+            mean += q;
+            cov += q * q.transpose();
+            ++n;
+          }
+        }
+    if (n < 5) continue;
+    mean /= double(n);
+    cov = cov / double(n) - mean * mean.transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+    Vec3f nn = es.eigenvectors().col(0).cast<float>().normalized();
+    if (nn.dot(viewpoint - p) < 0) nn = -nn;
+    normals[i] = nn;
+  }
+}
+
+bool load_model(Localizer& loc, const std::string& path, const LocalizeParams& params, int& index, std::string& err) {
+  const std::string name = base_name(path);
+  Status s;
+  if (ends_with(path, ".ply")) {
+    io::TriangleMesh mesh;
+    if (!io::read_ply(path, mesh, err)) return false;
+    if (!mesh.triangles.empty()) {
+      std::vector<uint32_t> tri(mesh.triangles.size() * 3);
+      for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+        for (int k = 0; k < 3; ++k) tri[t * 3 + std::size_t(k)] = mesh.triangles[t][std::size_t(k)];
+      s = loc.add_model(name.c_str(), mesh.vertices.data(), mesh.vertices.size(),
+                        reinterpret_cast<const uint32_t(*)[3]>(tri.data()), mesh.triangles.size(), params, index);
+      if (s == Status::kInvalidArgument) {
+        err = "the mesh has no usable surface (degenerate or zero-area triangles, non-finite vertices or "
+              "indices out of range; " + std::to_string(mesh.vertices.size()) + " vertices, " +
+              std::to_string(mesh.triangles.size()) + " triangles)";
+        return false;
+      }
+      if (s != Status::kOk) {
+        err = std::string("cannot load: ") + to_string(s) + " (the board holds " + "at most models_max models)";
+        return false;
+      }
+      return true;
+    }
+  }
+  io::PointCloud cloud;
+  if (ends_with(path, ".pcd") ? !io::read_pcd(path, cloud, err) : !io::read_ply(path, cloud, err)) return false;
+  std::vector<Vec3f> normals = cloud.normals;
+  if (normals.empty()) estimate_normals_pca(cloud.points, 0.01f, Vec3f::Zero(), normals);
+  std::vector<OrientedPoint> pts;
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud.points[i].allFinite() && normals[i].allFinite()) pts.push_back(OrientedPoint{cloud.points[i], normals[i]});
+  s = loc.add_model_cloud(name.c_str(), pts.data(), pts.size(), params, index);
+  if (s != Status::kOk) {
+    err = s == Status::kInvalidArgument ? "too few points with normals to make a model (" + std::to_string(pts.size()) + ")"
+                                        : std::string("cannot load: ") + to_string(s);
+    return false;
+  }
+  return true;
+}
+
+bool cloud_scene_points(const io::PointCloud& cloud, std::vector<ScenePoint>& out, std::string& err) {
+  std::vector<Vec3f> normals = cloud.normals;
+  if (normals.empty()) {
+    if (cloud.organised()) {
+      normals.resize(cloud.size());
+      organised_normals(cloud.points.data(), cloud.width, cloud.height, 0.02f, normals.data());
+    } else {
+      estimate_normals_pca(cloud.points, 0.01f, Vec3f::Zero(), normals);
+    }
+  }
+  out.clear();
+  // PCD "rgba" fields often carry alpha 0 (PCL writes it so): any colour of a coloured cloud counts.
+  auto colour = [&cloud](std::size_t i) {
+    if (cloud.colours.empty()) return Rgba8{};
+    Rgba8 c = cloud.colours[i];
+    c.a = 255;
+    return c;
+  };
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud.points[i].allFinite() && normals[i].allFinite())
+      out.push_back(ScenePoint{cloud.points[i], normals[i].normalized(), uint32_t(i),
+                                colour(i)});
+  if (out.size() < 100) {
+    err = "fewer than 100 points with normals";
+    return false;
+  }
+  return true;
+}
+
+bool write_pose_list(const std::string& path, const Localizer& loc, std::size_t count, std::string& err) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (!f) {
+    err = path + ": cannot open for writing";
+    return false;
+  }
+  std::fprintf(f, "# edgefuse localize: id tx ty tz qx qy qz qw score model  (T_world_object, picking order)\n");
+  for (std::size_t i = 0; i < count; ++i) {
+    const LocalizedObject& o = loc.results()[i];
+    const Eigen::Quaternionf q = o.T_world_object.quaternion();
+    std::fprintf(f, "%zu %.9f %.9f %.9f %.9f %.9f %.9f %.9f %.4f %s\n", i + 1, o.T_world_object.t.x(),
+                 o.T_world_object.t.y(), o.T_world_object.t.z(), q.x(), q.y(), q.z(), q.w(), o.score,
+                 o.model >= 0 ? loc.model(o.model).name : "segment");
+  }
+  const bool ok = std::fclose(f) == 0;
+  if (!ok) err = path + ": write failed";
+  return ok;
+}
+
+bool write_segment_labels(const std::string& path, const Localizer& loc, const io::PointCloud& input,
+                          std::size_t surface_count, const SurfacePoint* surface, std::string& err) {
+  io::PointCloud out;
+  if (!input.points.empty()) {
+    out.width = input.width;
+    out.height = input.height;
+    out.points = input.points;
+  } else {
+    out.points.resize(surface_count);
+    for (std::size_t i = 0; i < surface_count; ++i) out.points[i] = surface[i].position;
+    out.width = int(surface_count);
+    out.height = 1;
+  }
+  out.labels.assign(out.points.size(), 0u);
+  for (std::size_t i = 0; i < loc.scene_count(); ++i) {
+    const uint32_t src = loc.scene()[i].source;
+    if (src < out.labels.size() && loc.labels()[i] > 0) out.labels[src] = uint32_t(loc.labels()[i]);
+  }
+  if (ends_with(path, ".ply")) return io::write_ply(path, out, err);
+  return io::write_pcd(path, out, err);
+}
+
+}  // namespace edgefuse::cli

@@ -1,0 +1,31 @@
+// Host side of `edgefuse localize`: model files into the localiser, clouds into scene points,
+// the pose list and the segment labels out. Host code: may allocate.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "edgefuse/io/cloud.hpp"
+#include "edgefuse/localize/localizer.hpp"
+
+namespace edgefuse::cli {
+
+//! Reads a model (PLY mesh in metres; or a PLY/PCD cloud, normals estimated when absent) into `loc`.
+//! \return false with `err` saying what is wrong with the file
+bool load_model(Localizer& loc, const std::string& path, const LocalizeParams& params, int& index, std::string& err);
+
+//! Scene points of a camera-frame cloud: its normals, or organised-neighbour / PCA normals.
+bool cloud_scene_points(const io::PointCloud& cloud, std::vector<ScenePoint>& out, std::string& err);
+
+//! Normals by PCA over neighbours within radius_m, turned towards `viewpoint` (host helper).
+void estimate_normals_pca(const std::vector<Vec3f>& points, float radius_m, const Vec3f& viewpoint,
+                          std::vector<Vec3f>& normals);
+
+//! `id tx ty tz qx qy qz qw score model` per result.
+bool write_pose_list(const std::string& path, const Localizer& loc, std::size_t count, std::string& err);
+
+//! Labels per input point (organised cloud: same width x height) or per fused surface point.
+bool write_segment_labels(const std::string& path, const Localizer& loc, const io::PointCloud& input,
+                          std::size_t surface_count, const SurfacePoint* surface, std::string& err);
+
+}  // namespace edgefuse::cli
