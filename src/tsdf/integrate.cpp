@@ -92,6 +92,9 @@ void build_depth_tiles(const ImageView<const uint16_t>& depth, DepthTile* tiles)
 enum class BrickClass { kSkip, kFreeSpace, kVoxels };
 
 constexpr int kHalf = kBrickSide / 2;  // edge of the blocks a mixed brick is split into
+// Boxes whose footprint (with the bilinear margin) has at most this many pixels are classified
+// from the pixels themselves, larger ones from the 8x8 depth tiles.
+constexpr int kExactFootprintPixels = 144;
 
 // Every voxel of the cube of `side` voxels starting at local index `first` of the brick at `base`
 // is seen at d >= trunc: a full-weight +1 sample, no projection needed.
@@ -143,14 +146,32 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const Real c0[3], const
   b1 = b1 >= job.height ? job.height - 1 : b1;
   uint32_t lo = 0xffff, hi = 0;
   bool all = inside;
-  for (int j = b0 / FrameScratch::kTile; j <= b1 / FrameScratch::kTile; ++j)
-    for (int i = a0 / FrameScratch::kTile; i <= a1 / FrameScratch::kTile; ++i) {
-      const DepthTile& t = job.tiles[std::size_t(j) * job.tiles_x + i];
-      all = all && t.all_valid;
-      if (t.max_raw == 0) continue;
-      lo = t.min_raw < lo ? t.min_raw : lo;
-      hi = t.max_raw > hi ? t.max_raw : hi;
+  if ((a1 - a0 + 1) * (b1 - b0 + 1) <= kExactFootprintPixels) {
+    // A small footprint (a 4^3 block covers ~5x5 pixels at 2 mm and 0.7 m): its own pixels bound
+    // it much more tightly than the 8x8 tiles around it, which often hold an invalid pixel or a
+    // depth edge and would leave the block to the voxel loop.
+    for (int v = b0; v <= b1; ++v) {
+      const uint16_t* row = job.frame.depth.row(v);
+      for (int u = a0; u <= a1; ++u) {
+        const uint32_t x = row[u];
+        if (x == 0) {
+          all = false;
+          continue;
+        }
+        lo = x < lo ? x : lo;
+        hi = x > hi ? x : hi;
+      }
     }
+  } else {
+    for (int j = b0 / FrameScratch::kTile; j <= b1 / FrameScratch::kTile; ++j)
+      for (int i = a0 / FrameScratch::kTile; i <= a1 / FrameScratch::kTile; ++i) {
+        const DepthTile& t = job.tiles[std::size_t(j) * job.tiles_x + i];
+        all = all && t.all_valid;
+        if (t.max_raw == 0) continue;
+        lo = t.min_raw < lo ? t.min_raw : lo;
+        hi = t.max_raw > hi ? t.max_raw : hi;
+      }
+  }
   if (hi == 0) return BrickClass::kSkip;  // no measurement under the brick
   const Real z_meas_lo = job.depth.metres(uint16_t(lo)), z_meas_hi = job.depth.metres(uint16_t(hi));
   // d = (z - p.z) |ray| and |ray| >= 1: behind every measurement by rho -> d < -rho everywhere.

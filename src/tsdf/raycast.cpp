@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 #include "kernel_math.hpp"
 #include "tsdf_sampler.hpp"
@@ -54,18 +55,47 @@ RayFrame<Real> make_ray_frame(const TsdfVolume& volume, const PinholeIntrinsics&
   return f;
 }
 
+// The ray's direction in grid units per metre of z-depth, with what face crossings need. In float
+// a crossing costs a multiplication by the reciprocal (a division per axis and brick otherwise);
+// in Q16.16 the reciprocal of a large component (~500 at 2 mm voxels) keeps only ~2 digits, so
+// the fixed-point build divides. Axes the ray runs (nearly) parallel to are never crossed.
+template <class Real>
+struct RayDir {
+  Real gd[3];
+  Real inv[3];
+  bool crosses[3];
+  void init(const Real d[3]) {
+    const Real tiny = real_from<Real>(1e-4f);
+    for (int a = 0; a < 3; ++a) {
+      gd[a] = d[a];
+      crosses[a] = !(abs_r(d[a]) < tiny);
+      inv[a] = real_from_int<Real>(0);
+      if constexpr (std::is_same<Real, float>::value) {
+        if (crosses[a]) inv[a] = 1.0f / d[a];
+      }
+    }
+  }
+  //! t at which the ray's coordinate on `axis` has moved by `delta` grid units.
+  Real t_for(Real delta, int axis) const {
+    if constexpr (std::is_same<Real, float>::value) {
+      return delta * inv[axis];
+    } else {
+      return delta / gd[axis];
+    }
+  }
+};
+
 // Clips t (z-depth along the ray) so that g0 + t gd stays in [0, grid_max) on every axis.
 template <class Real>
-bool clip_to_grid(const RayFrame<Real>& f, const Real gd[3], Real& t0, Real& t1) {
+bool clip_to_grid(const RayFrame<Real>& f, const RayDir<Real>& r, Real& t0, Real& t1) {
   const Real zero = real_from_int<Real>(0);
-  const Real tiny = real_from<Real>(1e-4f);
   for (int a = 0; a < 3; ++a) {
-    if (abs_r(gd[a]) < tiny) {
+    if (!r.crosses[a]) {
       if (f.g0[a] < zero || !(f.g0[a] < f.grid_max)) return false;
       continue;
     }
-    Real ta = (zero - f.g0[a]) / gd[a];
-    Real tb = (f.grid_max - f.g0[a]) / gd[a];
+    Real ta = r.t_for(zero - f.g0[a], a);
+    Real tb = r.t_for(f.grid_max - f.g0[a], a);
     if (ta > tb) {
       const Real s = ta;
       ta = tb;
@@ -79,18 +109,15 @@ bool clip_to_grid(const RayFrame<Real>& f, const Real gd[3], Real& t0, Real& t1)
 
 // t at which the ray leaves the brick holding floor(g); `axis` is the face it leaves through.
 template <class Real>
-Real brick_exit(const RayFrame<Real>& f, const Real gd[3], const int cell[3], int& axis) {
-  const Real tiny = real_from<Real>(1e-4f);
+Real brick_exit(const RayFrame<Real>& f, const RayDir<Real>& r, const int cell[3], int& axis) {
+  const Real zero = real_from_int<Real>(0);
   Real t_exit = real_from_int<Real>(1 << 14);
   axis = 0;
   for (int a = 0; a < 3; ++a) {
+    if (!r.crosses[a]) continue;
     const int lo = cell[a] & ~(kBrickSide - 1);
-    Real ta = t_exit;
-    if (gd[a] > tiny) {
-      ta = (real_from_int<Real>(lo + kBrickSide) - f.g0[a]) / gd[a];
-    } else if (gd[a] < real_from_int<Real>(0) - tiny) {
-      ta = (real_from_int<Real>(lo) - f.g0[a]) / gd[a];
-    }
+    const Real face = real_from_int<Real>(r.gd[a] > zero ? lo + kBrickSide : lo);
+    const Real ta = r.t_for(face - f.g0[a], a);
     if (ta < t_exit) {
       t_exit = ta;
       axis = a;
@@ -177,155 +204,304 @@ bool sample_tsdf(const TsdfVolume& volume, const Vec3f& p_world, float& d_m) {
   return true;
 }
 
+namespace {
+
+// One ray being marched: everything the march needs between two samples.
+template <class Real>
+struct RayState {
+  int u = 0, v = 0;
+  RayDir<Real> dir;
+  Real rx, ry;
+  Real t, t_end;
+  Real z_per_m;      // z-depth advanced per metre along the ray
+  Real min_step;     // half a voxel
+  Real nudge;        // 1/64 voxel
+  Real half_trunc;   // half the truncation
+  Real far_step;     // from a voxel at +trunc the surface is at least trunc - 1 voxel away
+  Real prev_t, prev_s;
+  bool prev_valid;
+};
+
+enum class MarchResult { kGoing, kHit, kMiss };
+
+// The per-frame state of raycast_rows and the march of one ray, one sample at a time.
+template <class Real>
+class RayMarcher {
+ public:
+  RayMarcher(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam, const RaycastMaps& maps,
+             const FrameScratch& scratch)
+      : volume_(volume), intr_(intr), T_world_cam_(T_world_cam), maps_(maps), scratch_(scratch),
+        f_(make_ray_frame<Real>(volume, intr, T_world_cam)), sampler_(volume), flags_(volume.brick_flags()),
+        tsdf_(volume.tsdf()), tiles_x_(FrameScratch::tiles_x(intr.width)), last_(uint32_t(volume.dim() - 1)),
+        nb_(uint32_t(volume.bricks_per_axis())), nb2_(nb_ * nb_),
+        // The positive band in front of a surface has |tsdf| < 1, so it belongs to surface bricks
+        // too: starting at the tiles' near bound still leaves a positive sample before every crossing.
+        margin_(real_from<Real>(volume.voxel_m())),
+        want_colour_(!maps.colour.empty() && volume.has_colour()) {}
+
+  // Clears the outputs of pixel (u, v) and sets up its ray; false when there is nothing to march.
+  bool start(int u, int v, RayState<Real>& r) const {
+    const Real zero = real_from_int<Real>(0);
+    const Real half = real_from<Real>(0.5f);
+    const Real one = real_from_int<Real>(1);
+    maps_.depth_m.at(u, v) = 0.0f;
+    if (!maps_.vertex.empty()) maps_.vertex.at(u, v) = Vec3f::Zero();
+    if (!maps_.normal.empty()) maps_.normal.at(u, v) = Vec3f::Zero();
+    if (!maps_.colour.empty()) maps_.colour.at(u, v) = Rgba8{};
+    // The z range where this tile's surface bricks lie (and a voxel of slack).
+    const std::size_t tile = std::size_t(v / FrameScratch::kTile) * tiles_x_ + std::size_t(u / FrameScratch::kTile);
+    if (scratch_.model_max_z[tile] < 0.0f) return false;
+    r.u = u;
+    r.v = v;
+    // Ray (x, y, 1) in the camera frame: t along it is the z-depth.
+    r.rx = (real_from_int<Real>(u) - f_.cx) * f_.fx_inv;
+    r.ry = (real_from_int<Real>(v) - f_.cy) * f_.fy_inv;
+    Real gd[3];
+    for (int k = 0; k < 3; ++k) gd[k] = (f_.R[k * 3] * r.rx + f_.R[k * 3 + 1] * r.ry + f_.R[k * 3 + 2]) * f_.inv_voxel;
+    r.dir.init(gd);
+    const Real ray_norm = real_sqrt(r.rx * r.rx + r.ry * r.ry + one);
+    r.z_per_m = one / ray_norm;
+    r.min_step = half * f_.voxel * r.z_per_m;
+    r.nudge = real_from<Real>(1.0f / 64.0f) * f_.voxel * r.z_per_m;
+    r.half_trunc = max_r(half * f_.trunc * r.z_per_m, r.min_step);
+    r.far_step = max_r((f_.trunc - f_.voxel) * r.z_per_m, r.min_step);
+    r.t = max_r(f_.min_z, real_from<Real>(scratch_.model_min_z[tile]) - margin_);
+    r.t_end = min_r(f_.max_z, real_from<Real>(scratch_.model_max_z[tile]) + margin_);
+    if (!clip_to_grid(f_, r.dir, r.t, r.t_end)) return false;
+    // Start and stop a little inside the grid: the clip is exact only up to rounding.
+    r.t += r.nudge;
+    r.t_end -= r.nudge;
+    r.prev_valid = false;
+    r.prev_t = zero;
+    r.prev_s = zero;
+    return true;
+  }
+
+  // The trilinear cell with base corner `cell`, addressed for the march: the linear index of its
+  // base voxel and the index offsets to its +x, +y, +z neighbours (which jump to the next brick
+  // from a brick's last voxel). The base index over 512 is the brick's index.
+  struct CellAddress {
+    uint32_t base, dx, dy, dz;
+  };
+  CellAddress address(const int cell[3]) const {
+    const uint32_t x = uint32_t(cell[0]), y = uint32_t(cell[1]), z = uint32_t(cell[2]);
+    CellAddress a;
+    a.base = (((x >> 3) + (y >> 3) * nb_ + (z >> 3) * nb2_) << 9) | ((z & 7u) << 6) | ((y & 7u) << 3) | (x & 7u);
+    a.dx = (x & 7u) == 7u ? uint32_t(kBrickVoxels) - 7u : 1u;
+    a.dy = (y & 7u) == 7u ? nb_ * kBrickVoxels - 56u : 8u;
+    a.dz = (z & 7u) == 7u ? nb2_ * kBrickVoxels - 448u : 64u;
+    return a;
+  }
+  // True when the cell with base `cell` lies inside the grid (its +1 corners too).
+  bool in_grid(const int cell[3]) const {
+    return uint32_t(cell[0]) < last_ && uint32_t(cell[1]) < last_ && uint32_t(cell[2]) < last_;
+  }
+  // Trilinear TSDF (fraction of trunc) of the cell at `a` with offsets fx, fy, fz; false when a
+  // corner is unobserved. The same arithmetic as TsdfSampler::sample.
+  bool trilinear(const CellAddress& a, Real fx, Real fy, Real fz, Real& out) const {
+    const uint32_t i0 = a.base, i1 = i0 + a.dx, i2 = i0 + a.dy, i3 = i2 + a.dx;
+    const uint32_t i4 = i0 + a.dz, i5 = i4 + a.dx, i6 = i4 + a.dy, i7 = i6 + a.dx;
+    const int16_t q[8] = {tsdf_[i0], tsdf_[i1], tsdf_[i2], tsdf_[i3], tsdf_[i4], tsdf_[i5], tsdf_[i6], tsdf_[i7]};
+    bool unobserved = false;
+    for (int i = 0; i < 8; ++i) unobserved = unobserved || q[i] == kTsdfUnobserved;
+    if (unobserved) return false;
+    Real c[8];
+    for (int i = 0; i < 8; ++i) c[i] = tsdf_fraction(Real(), q[i]);
+    const Real c00 = c[0] + (c[1] - c[0]) * fx, c10 = c[2] + (c[3] - c[2]) * fx;
+    const Real c01 = c[4] + (c[5] - c[4]) * fx, c11 = c[6] + (c[7] - c[6]) * fx;
+    const Real c0 = c00 + (c10 - c00) * fy, c1 = c01 + (c11 - c01) * fy;
+    out = c0 + (c1 - c0) * fz;
+    return true;
+  }
+  // Trilinear TSDF at grid point g (refinement samples).
+  bool sample(const Real g[3], Real& out) const {
+    const int cell[3] = {floor_int(g[0]), floor_int(g[1]), floor_int(g[2])};
+    if (!in_grid(cell)) return false;
+    return trilinear(address(cell), g[0] - real_from_int<Real>(cell[0]), g[1] - real_from_int<Real>(cell[1]),
+                     g[2] - real_from_int<Real>(cell[2]), out);
+  }
+
+  // One sample of the march (or the refinement of a crossing, which ends it).
+  MarchResult step(RayState<Real>& r, Real& t_hit) const {
+    const Real zero = real_from_int<Real>(0);
+    const Real half = real_from<Real>(0.5f);
+    const Real one = real_from_int<Real>(1);
+    if (!(r.t < r.t_end)) return MarchResult::kMiss;
+    const Real* gd = r.dir.gd;
+    const Real g[3] = {f_.g0[0] + r.t * gd[0], f_.g0[1] + r.t * gd[1], f_.g0[2] + r.t * gd[2]};
+    const int cell[3] = {floor_int(g[0]), floor_int(g[1]), floor_int(g[2])};
+    if (!in_grid(cell)) return MarchResult::kMiss;
+    const CellAddress a = address(cell);
+    const uint8_t bf = flags_[a.base >> 9];
+    if ((bf & (kBrickNearSurface | kBrickObserved)) != (kBrickNearSurface | kBrickObserved)) {
+      // No surface in or next to this brick, or nothing observed in it (then every cell based
+      // here has an unobserved corner): leave it whole.
+      // A ray grazing a brick face can sit exactly on it: when the nudge is lost to rounding
+      // (the exit is where we are), move on by half a voxel so the march always advances.
+      int axis;
+      const Real t_next = brick_exit(f_, r.dir, cell, axis) + r.nudge;
+      r.t = t_next > r.t + r.nudge ? t_next : r.t + r.min_step;
+      r.prev_valid = false;
+      return MarchResult::kGoing;
+    }
+    if (!(bf & kBrickSurface)) {
+      // Surface next door but none here: only the last cell before the exit face, which
+      // reaches into the next brick, can hold a crossing. Go to one voxel before that face.
+      int axis;
+      const Real t_exit = brick_exit(f_, r.dir, cell, axis);
+      const Real t_last_cell = t_exit - abs_r(r.dir.t_for(real_from<Real>(1.01f), axis));
+      if (t_last_cell > r.t + r.min_step) {
+        r.t = t_last_cell;
+        r.prev_valid = false;
+        return MarchResult::kGoing;
+      }
+    }
+    // The nearest voxel first (2 loads instead of 16): unobserved or truncated at +1, the
+    // trilinear value cannot hold a crossing within the step taken below.
+    const Real fx = g[0] - real_from_int<Real>(cell[0]);
+    const Real fy = g[1] - real_from_int<Real>(cell[1]);
+    const Real fz = g[2] - real_from_int<Real>(cell[2]);
+    const uint32_t ni = a.base + (fx < half ? 0u : a.dx) + (fy < half ? 0u : a.dy) + (fz < half ? 0u : a.dz);
+    const int16_t nq = tsdf_[ni];
+    if (nq == kTsdfUnobserved) {
+      // An unobserved corner: no surface can be here. A surface seen from this side has its
+      // positive band (at least trunc deep along any ray) observed, so half a truncation lands
+      // in that band before its zero crossing, never beyond it.
+      r.t += r.half_trunc;
+      r.prev_valid = false;
+      return MarchResult::kGoing;
+    }
+    if (nq == kTsdfMax) {
+      r.prev_valid = true;  // a +1 sample: the crossing, if next, lies between here and there
+      r.prev_t = r.t;
+      r.prev_s = one;
+      r.t += r.far_step;
+      return MarchResult::kGoing;
+    }
+    Real s;
+    if (!trilinear(a, fx, fy, fz, s)) {
+      r.t += r.half_trunc;  // another corner is unobserved: as above
+      r.prev_valid = false;
+      return MarchResult::kGoing;
+    }
+    if (r.prev_valid && r.prev_s > zero && !(s > zero)) {
+      // Zero crossing between prev_t and t: regula falsi on the trilinear field.
+      Real ta = r.prev_t, sa = r.prev_s, tb = r.t, sb = s;
+      for (int it = 0; it < 3; ++it) {
+        const Real tm = ta + (tb - ta) * (sa / (sa - sb));
+        const Real gm[3] = {f_.g0[0] + tm * gd[0], f_.g0[1] + tm * gd[1], f_.g0[2] + tm * gd[2]};
+        Real sm;
+        if (!sample(gm, sm)) break;
+        if constexpr (std::is_same<Real, float>::value) {
+          // Done when the next secant correction, |sm| / slope, is under 1/200 voxel (on a plane
+          // the first secant lands on the surface; the remaining iterations would only repeat it).
+          // Q16.16 cannot resolve that bound at millimetre voxels, so the fixed-point build
+          // always iterates.
+          if (abs_r(sm) * (tb - ta) < real_from<Real>(0.01f) * r.min_step * (sa - sb)) {
+            t_hit = tm;
+            return MarchResult::kHit;
+          }
+        }
+        if (sm > zero) {
+          ta = tm;
+          sa = sm;
+        } else {
+          tb = tm;
+          sb = sm;
+        }
+      }
+      t_hit = sa > sb ? ta + (tb - ta) * (sa / (sa - sb)) : ta;
+      return MarchResult::kHit;
+    }
+    r.prev_valid = true;
+    r.prev_t = r.t;
+    r.prev_s = s;
+    // Step by the distance itself (the projective TSDF bounds the distance to the surface).
+    r.t += max_r(abs_r(s) * f_.trunc * r.z_per_m, r.min_step);
+    return MarchResult::kGoing;
+  }
+
+  // Writes the outputs of a ray that hit the surface at z-depth t_hit.
+  void finish_hit(const RayState<Real>& r, Real t_hit) const {
+    const int u = r.u, v = r.v;
+    const float z = to_float(t_hit);
+    const Vec3f ray(to_float(r.rx), to_float(r.ry), 1.0f);
+    maps_.depth_m.at(u, v) = z;
+    if (!maps_.vertex.empty()) maps_.vertex.at(u, v) = ray * z;
+    const Real* gd = r.dir.gd;
+    const Real gh[3] = {f_.g0[0] + t_hit * gd[0], f_.g0[1] + t_hit * gd[1], f_.g0[2] + t_hit * gd[2]};
+    if (!maps_.normal.empty()) {
+      float grad[3];
+      if (sampler_.gradient(gh[0], gh[1], gh[2], grad)) {
+        const Vec3f n_world(grad[0], grad[1], grad[2]);
+        const float len = n_world.norm();
+        if (len > 0.0f) {
+          Vec3f n = T_world_cam_.R.transpose() * (n_world / len);
+          if (n.dot(ray) > 0.0f) n = -n;  // face the sensor
+          maps_.normal.at(u, v) = n;
+        }
+      }
+    }
+    if (want_colour_) maps_.colour.at(u, v) = sampler_.colour(gh[0], gh[1], gh[2]);
+  }
+
+ private:
+  const TsdfVolume& volume_;
+  const PinholeIntrinsics& intr_;
+  const Pose& T_world_cam_;
+  const RaycastMaps& maps_;
+  const FrameScratch& scratch_;
+  const RayFrame<Real> f_;
+  const TsdfSampler<Real> sampler_;
+  const uint8_t* flags_;
+  const int16_t* tsdf_;
+  const int tiles_x_;
+  const uint32_t last_, nb_, nb2_;
+  const Real margin_;
+  const bool want_colour_;
+};
+
+// Pixels in march order: tile column by tile column (8 columns of the given rows at a time), so
+// that neighbouring rays, which read the same voxels, follow each other while those voxels are
+// still cached.
+struct PixelCursor {
+  int width, row_begin, row_end;
+  int u0 = 0, u = 0, v = 0;
+  PixelCursor(int w, int rb, int re) : width(w), row_begin(rb), row_end(re), v(rb) {}
+  bool next(int& pu, int& pv) {
+    if (v >= row_end || u0 >= width) return false;
+    pu = u0 + u;
+    pv = v;
+    const int tile_w = width - u0 < FrameScratch::kTile ? width - u0 : FrameScratch::kTile;
+    if (++u == tile_w) {
+      u = 0;
+      if (++v == row_end) {
+        v = row_begin;
+        u0 += FrameScratch::kTile;
+      }
+    }
+    return true;
+  }
+};
+
+}  // namespace
+
 template <class Real>
 void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
                   const RaycastMaps& maps, const FrameScratch& scratch, int row_begin, int row_end) {
-  const int tiles_x = FrameScratch::tiles_x(intr.width);
-  // The positive band in front of a surface has |tsdf| < 1, so it belongs to surface bricks too:
-  // starting at the tiles' near bound still leaves a positive sample before every crossing.
-  const Real margin = real_from<Real>(volume.voxel_m());
-  const RayFrame<Real> f = make_ray_frame<Real>(volume, intr, T_world_cam);
-  const TsdfSampler<Real> sampler(volume);
-  const uint8_t* flags = volume.brick_flags();
-  const int16_t* tsdf = volume.tsdf();
-  const Real zero = real_from_int<Real>(0);
-  const Real half = real_from<Real>(0.5f);
-  const Real one = real_from_int<Real>(1);
-  const bool want_colour = !maps.colour.empty() && volume.has_colour();
-
-  // Pixels are visited tile by tile (8 columns of the given rows at a time) so that neighbouring
-  // rays, which read the same voxels, follow each other while those voxels are still cached.
-  for (int u0 = 0; u0 < intr.width; u0 += FrameScratch::kTile)
-  for (int v = row_begin; v < row_end; ++v) {
-    const int u_end = u0 + FrameScratch::kTile < intr.width ? u0 + FrameScratch::kTile : intr.width;
-    for (int u = u0; u < u_end; ++u) {
-      maps.depth_m.at(u, v) = 0.0f;
-      if (!maps.vertex.empty()) maps.vertex.at(u, v) = Vec3f::Zero();
-      if (!maps.normal.empty()) maps.normal.at(u, v) = Vec3f::Zero();
-      if (!maps.colour.empty()) maps.colour.at(u, v) = Rgba8{};
-
-      // Ray (x, y, 1) in the camera frame: t along it is the z-depth.
-      const Real rx = (real_from_int<Real>(u) - f.cx) * f.fx_inv;
-      const Real ry = (real_from_int<Real>(v) - f.cy) * f.fy_inv;
-      Real gd[3];
-      for (int r = 0; r < 3; ++r) gd[r] = (f.R[r * 3] * rx + f.R[r * 3 + 1] * ry + f.R[r * 3 + 2]) * f.inv_voxel;
-      const Real ray_norm = real_sqrt(rx * rx + ry * ry + one);
-      const Real z_per_m = one / ray_norm;             // z-depth advanced per metre along the ray
-      const Real min_step = half * f.voxel * z_per_m;  // half a voxel
-      const Real nudge = real_from<Real>(1.0f / 64.0f) * f.voxel * z_per_m;
-      const Real half_trunc = half * f.trunc * z_per_m;
-      // From a voxel at +trunc the surface is at least trunc minus half a voxel diagonal away.
-      const Real far_step = max_r((f.trunc - f.voxel) * z_per_m, min_step);
-
-      // The z range where this tile's surface bricks lie (and a voxel of slack).
-      const std::size_t tile = std::size_t(v / FrameScratch::kTile) * tiles_x + std::size_t(u / FrameScratch::kTile);
-      if (scratch.model_max_z[tile] < 0.0f) continue;
-      Real t = max_r(f.min_z, real_from<Real>(scratch.model_min_z[tile]) - margin);
-      Real t_end = min_r(f.max_z, real_from<Real>(scratch.model_max_z[tile]) + margin);
-      if (!clip_to_grid(f, gd, t, t_end)) continue;
-      // Start and stop a little inside the grid: the clip is exact only up to rounding.
-      t += nudge;
-      t_end -= nudge;
-
-      bool prev_valid = false;
-      Real prev_t = zero, prev_s = zero;
-      bool hit = false;
-      Real t_hit = zero;
-      while (t < t_end) {
-        const Real g[3] = {f.g0[0] + t * gd[0], f.g0[1] + t * gd[1], f.g0[2] + t * gd[2]};
-        int cell[3] = {floor_int(g[0]), floor_int(g[1]), floor_int(g[2])};
-        if (!sampler.in_grid(cell)) break;
-        const uint8_t bf = flags[volume.brick_index(cell[0] >> 3, cell[1] >> 3, cell[2] >> 3)];
-        if ((bf & (kBrickNearSurface | kBrickObserved)) != (kBrickNearSurface | kBrickObserved)) {
-          // No surface in or next to this brick, or nothing observed in it (then every cell based
-          // here has an unobserved corner): leave it whole.
-          // A ray grazing a brick face can sit exactly on it: when the nudge is lost to rounding
-          // (the exit is where we are), move on by half a voxel so the march always advances.
-          int axis;
-          const Real t_next = brick_exit(f, gd, cell, axis) + nudge;
-          t = t_next > t + nudge ? t_next : t + min_step;
-          prev_valid = false;
-          continue;
-        }
-        if (!(bf & kBrickSurface)) {
-          // Surface next door but none here: only the last cell before the exit face, which
-          // reaches into the next brick, can hold a crossing. Go to one voxel before that face.
-          int axis;
-          const Real t_exit = brick_exit(f, gd, cell, axis);
-          const Real t_last_cell = t_exit - real_from<Real>(1.01f) / abs_r(gd[axis]);
-          if (t_last_cell > t + min_step) {
-            t = t_last_cell;
-            prev_valid = false;
-            continue;
-          }
-        }
-        // The nearest voxel first (2 loads instead of 16): unobserved or truncated at +1, the
-        // trilinear value cannot hold a crossing within the step taken below.
-        const int nearest[3] = {floor_int(g[0] + half), floor_int(g[1] + half), floor_int(g[2] + half)};
-        const std::size_t ni = volume.index(nearest[0], nearest[1], nearest[2]);
-        if (tsdf[ni] == kTsdfMax) {
-          prev_valid = true;  // a +1 sample: the crossing, if next, lies between here and there
-          prev_t = t;
-          prev_s = one;
-          t += far_step;
-          continue;
-        }
-        Real s;
-        if (!sampler.sample(g[0], g[1], g[2], s)) {
-          // Unobserved corner: no surface can be here. A surface seen from this side has its
-          // positive band (at least trunc deep along any ray) observed, so half a truncation
-          // lands in that band before its zero crossing, never beyond it.
-          t += max_r(half_trunc, min_step);
-          prev_valid = false;
-          continue;
-        }
-        if (prev_valid && prev_s > zero && !(s > zero)) {
-          // Zero crossing between prev_t and t: regula falsi on the trilinear field.
-          Real ta = prev_t, sa = prev_s, tb = t, sb = s;
-          for (int it = 0; it < 3; ++it) {
-            const Real tm = ta + (tb - ta) * (sa / (sa - sb));
-            const Real gm[3] = {f.g0[0] + tm * gd[0], f.g0[1] + tm * gd[1], f.g0[2] + tm * gd[2]};
-            Real sm;
-            if (!sampler.sample(gm[0], gm[1], gm[2], sm)) break;
-            if (sm > zero) {
-              ta = tm;
-              sa = sm;
-            } else {
-              tb = tm;
-              sb = sm;
-            }
-          }
-          t_hit = sa > sb ? ta + (tb - ta) * (sa / (sa - sb)) : ta;
-          hit = true;
-          break;
-        }
-        prev_valid = true;
-        prev_t = t;
-        prev_s = s;
-        // Step by the distance itself (the projective TSDF bounds the distance to the surface).
-        t += max_r(abs_r(s) * f.trunc * z_per_m, min_step);
-      }
-      if (!hit) continue;
-
-      const float z = to_float(t_hit);
-      const Vec3f ray(to_float(rx), to_float(ry), 1.0f);
-      maps.depth_m.at(u, v) = z;
-      if (!maps.vertex.empty()) maps.vertex.at(u, v) = ray * z;
-      const Real gh[3] = {f.g0[0] + t_hit * gd[0], f.g0[1] + t_hit * gd[1], f.g0[2] + t_hit * gd[2]};
-      if (!maps.normal.empty()) {
-        float grad[3];
-        if (sampler.gradient(gh[0], gh[1], gh[2], grad)) {
-          const Vec3f n_world(grad[0], grad[1], grad[2]);
-          const float len = n_world.norm();
-          if (len > 0.0f) {
-            Vec3f n = T_world_cam.R.transpose() * (n_world / len);
-            if (n.dot(ray) > 0.0f) n = -n;  // face the sensor
-            maps.normal.at(u, v) = n;
-          }
-        }
-      }
-      if (want_colour) maps.colour.at(u, v) = sampler.colour(gh[0], gh[1], gh[2]);
-    }
+  if (row_begin >= row_end) return;
+  const RayMarcher<Real> marcher(volume, intr, T_world_cam, maps, scratch);
+  PixelCursor cursor(intr.width, row_begin, row_end);
+  RayState<Real> ray;
+  int u, v;
+  while (cursor.next(u, v)) {
+    if (!marcher.start(u, v, ray)) continue;
+    Real t_hit;
+    MarchResult res;
+    do {
+      res = marcher.step(ray, t_hit);
+    } while (res == MarchResult::kGoing);
+    if (res == MarchResult::kHit) marcher.finish_hit(ray, t_hit);
   }
 }
 
