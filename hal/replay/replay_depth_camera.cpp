@@ -27,7 +27,7 @@ bool ReplayDepthCamera::mode(int index, DepthMode& m) const {
 HalStatus ReplayDepthCamera::start(int mode_index) {
   if (mode_index != 0) return HalStatus::kInvalidArgument;
   if (seq_.frames.empty()) return HalStatus::kNoDevice;
-  const std::size_t n = seq_.intr.pixel_count();
+  const std::size_t n = std::size_t(seq_.intr.width) * std::size_t(seq_.intr.height);
   depth_.reserve(n);  // decode buffers: allocated here, reused by every frame
   amplitude_.reserve(n);
   colour_.reserve(n);
@@ -65,7 +65,7 @@ HalStatus ReplayDepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms) 
     }
   }
   ++index_;
-  const std::size_t n = seq_.intr.pixel_count();
+  const std::size_t n = std::size_t(seq_.intr.width) * std::size_t(seq_.intr.height);
   if (!io::load_depth(ref, seq_.intr, depth_, error_)) return HalStatus::kBadFrame;
   std::memcpy(frame.depth, depth_.data(), n * sizeof(uint16_t));
   frame.has_colour = false;
