@@ -97,12 +97,12 @@ void CameraWorker::run() {
         last_frame_us = clock_.now_us();
         uint32_t gap = 0;
         const FrameReject r = checks_.check(frame, gap);
+        counters_.device_gaps.fetch_add(gap, std::memory_order_relaxed);
         if (r != FrameReject::kNone) {
           counters_.rejected[size_t(r)].fetch_add(1, std::memory_order_relaxed);
           break;
         }
         backoff_ms_ = config_.backoff_min_ms;  // healthy again: the next fault starts from the minimum
-        counters_.device_gaps.fetch_add(gap, std::memory_order_relaxed);
         channel_.publish();
         break;
       }

@@ -15,7 +15,8 @@ class FrameChecks {
     mode_ = mode;
     have_seq_ = false;
   }
-  //! Checks `frame`; on success remembers its stamp and returns the sequence gap in `gap`.
+  //! Checks `frame`; returns the sequence gap before it in `gap` (rejected or not) and, on
+  //! success, remembers its stamp.
   //! \param frame the frame  \param gap receives frames missing before it (device sequence)
   FrameReject check(const DepthFrame& frame, uint32_t& gap);
 
