@@ -48,6 +48,8 @@ TEST(HalBoard, EveryBoardFileReads) {
   CHECK(rpi.cameras[1].backend == io::CameraBackend::kV4l2);
   STRCMP_EQUAL("/dev/video0", rpi.cameras[1].uri.c_str());
   DOUBLES_EQUAL(0.0002, rpi.cameras[1].depth_unit_m, 1e-12);
+  CHECK(rpi.cameras[1].has_intrinsics);
+  DOUBLES_EQUAL(88.95, rpi.cameras[1].fy, 1e-9);
   const io::BoardPin* pin = rpi.find_pin(rpi.scanners[0].trigger_pin);
   CHECK(pin != nullptr);
   STRCMP_EQUAL("gpiochip0", pin->chip.c_str());
@@ -62,6 +64,8 @@ TEST(HalBoard, BadFilesAreRefusedWithTheirReason) {
   STRCMP_CONTAINS("usb_vid and usb_pid go together",
                   error_of("[[camera]]\nname = \"x\"\nbackend = \"sim\"\nusb_vid = 1\n").c_str());
   STRCMP_CONTAINS("v4l2 needs uri", error_of("[[camera]]\nname = \"x\"\nbackend = \"v4l2\"\n").c_str());
+  STRCMP_CONTAINS("v4l2 needs width, height, fx",
+                  error_of("[[camera]]\nname = \"x\"\nbackend = \"v4l2\"\nuri = \"/dev/video0\"\n").c_str());
   STRCMP_CONTAINS("trigger_pin 'p' is not a [[pin]]",
                   error_of("[[line_scanner]]\nname = \"l\"\nbackend = \"sim\"\ntrigger_pin = \"p\"\n").c_str());
   STRCMP_CONTAINS("is not an input",

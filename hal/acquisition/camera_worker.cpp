@@ -66,11 +66,11 @@ void CameraWorker::run() {
       if (s != HalStatus::kOk) {
         counters_.open_failures.fetch_add(1, std::memory_order_relaxed);
         if (s == HalStatus::kNoDevice) was_unplugged = true;
-        if (s == HalStatus::kNoDevice && monitor_ != nullptr) {
+        if (s == HalStatus::kNoDevice && monitor_ != nullptr && !monitor_->present(camera_.name())) {
           camera_.stop();
           set_state(DeviceState::kUnplugged);
         } else {
-          enter_backoff();
+          enter_backoff();  // includes "present but will not open": no busy retry loop
         }
         continue;
       }

@@ -101,7 +101,13 @@ HalStatus SimDepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms) {
   const uint64_t period_us = 1000000u / uint64_t(config_.fps);
   uint64_t stamp_us = start_us_ + uint64_t(sequence_) * period_us;
   if (config_.paced) {
+    // Read too late (or rendering slower than the rate): like a real camera, the frames nobody
+    // took are gone; the next one is the current period's (a sequence gap).
     const uint64_t now = clock_.now_us();
+    if (now > stamp_us + period_us) {
+      sequence_ = uint32_t((now - start_us_) / period_us);
+      stamp_us = start_us_ + uint64_t(sequence_) * period_us;
+    }
     if (stamp_us > now) {
       const uint64_t wait_us = stamp_us - now;
       if (wait_us > uint64_t(timeout_ms) * 1000u) {

@@ -6,6 +6,7 @@ namespace edgefuse::hal {
 
 bool SimScene::add(const SimSolid& solid) {
   if (count_ >= kCapacity) return false;
+  bound_radius_m_[count_] = solid.half_m.norm() * 1.001f;
   solids_[count_++] = solid;
   return true;
 }
@@ -81,6 +82,11 @@ bool SimScene::intersect(const Vec3f& origin, const Vec3f& dir, SimHit& hit) con
   hit.solid = -1;
   for (int i = 0; i < count_; ++i) {
     const SimSolid& s = solids_[i];
+    // Bounding sphere first: skip when the ray passes it or it lies behind the best hit.
+    const Vec3f oc = s.T_world_solid.t - origin;
+    const float tc = oc.dot(dir);
+    const float r = bound_radius_m_[i];
+    if (oc.squaredNorm() - tc * tc > r * r || tc + r < 0 || tc - r > hit.t) continue;
     // Into the solid's frame: p_solid = R^T (p_world - t).
     const Vec3f o = s.T_world_solid.R.transpose() * (origin - s.T_world_solid.t);
     const Vec3f d = s.T_world_solid.R.transpose() * dir;

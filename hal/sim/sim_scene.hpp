@@ -43,6 +43,7 @@ class SimScene {
 
  private:
   SimSolid solids_[kCapacity];
+  float bound_radius_m_[kCapacity];  // bounding sphere about the solid's origin: most rays skip the slab test
   int count_ = 0;
 };
 

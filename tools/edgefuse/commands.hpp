@@ -8,5 +8,6 @@ int cmd_fuse(int argc, char** argv);
 int cmd_memmap(int argc, char** argv);
 int cmd_track(int argc, char** argv);
 int cmd_eval(int argc, char** argv);
+int cmd_acquire(int argc, char** argv);  // HAL (issue 6)
 
 }  // namespace edgefuse::cli

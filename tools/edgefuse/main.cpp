@@ -19,6 +19,8 @@ const Command kCommands[] = {
     {"memmap", edgefuse::cli::cmd_memmap, "print a board's static memory map"},
     {"track", edgefuse::cli::cmd_track, "track the sensor by ICP against the fused model, fuse, write the trajectory"},
     {"eval", edgefuse::cli::cmd_eval, "trajectory accuracy: ATE (aligned) / RPE against ground truth, as TUM's tools"},
+    // HAL (issue 6)
+    {"acquire", edgefuse::cli::cmd_acquire, "run the board's cameras through the acquisition runtime, print status"},
 };
 
 void usage(std::FILE* out) {

@@ -102,6 +102,11 @@ bool read_board_hal(const std::string& path, BoardHal& hal, std::string& err) {
           !f.get_int("usb_vid", vid, false, 0, 0xffff) || !f.get_int("usb_pid", pid, false, 0, 0xffff))
         return false;
       if ((vid < 0) != (pid < 0)) return f.fail("usb_vid and usb_pid go together");
+      const bool any_k = f.has("fx") || f.has("fy") || f.has("cx") || f.has("cy");
+      if (any_k && (!f.get_number("fx", c.fx, true, true) || !f.get_number("fy", c.fy, true, true) ||
+                    !f.get_number("cx", c.cx, true) || !f.get_number("cy", c.cy, true)))
+        return false;
+      c.has_intrinsics = any_k;
       c.backend = CameraBackend(backend);
       c.width = int(w);
       c.height = int(h);
@@ -110,6 +115,8 @@ bool read_board_hal(const std::string& path, BoardHal& hal, std::string& err) {
       c.usb_vid = uint16_t(vid < 0 ? 0 : vid);
       c.usb_pid = uint16_t(pid < 0 ? 0 : pid);
       if (c.backend == CameraBackend::kV4l2 && c.uri.empty()) return f.fail("v4l2 needs uri = \"/dev/videoN\"");
+      if (c.backend == CameraBackend::kV4l2 && (!c.has_intrinsics || w == 0 || h == 0))
+        return f.fail("v4l2 needs width, height, fx, fy, cx, cy (V4L2 reports no intrinsics)");
       for (const BoardCamera& o : out.cameras)
         if (o.name == c.name) return top.fail("camera name '" + c.name + "' is used twice");
       out.cameras.push_back(c);

@@ -20,6 +20,8 @@ struct BoardCamera {
   std::string uri;                //!< openni2: URI ("" any, "Dummy", .oni); v4l2: device node; replay: folder
   int width = 0, height = 0, fps = 0;  //!< requested mode (0: the backend's default)
   double depth_unit_m = 0.001;    //!< v4l2: metres per raw unit
+  bool has_intrinsics = false;    //!< fx fy cx cy given (required for v4l2: V4L2 reports none)
+  double fx = 0, fy = 0, cx = 0, cy = 0;  //!< pixels, at width x height
   bool has_usb = false;           //!< usb_vid/usb_pid given
   uint16_t usb_vid = 0, usb_pid = 0;
 };
