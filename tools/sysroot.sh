@@ -23,6 +23,10 @@ esac
 # Library packages are listed explicitly with their -dev packages: `apt-get download` does not
 # follow dependencies. libtomlplusplus-dev is only for its headers (used header-only).
 PACKAGES=(libcpputest-dev libpng-dev libpng16-16 zlib1g-dev zlib1g liblzf-dev liblzf1 libtomlplusplus-dev)
+# HAL device backends (issue 6): libgpiod (static), libusb (static, needs the shared libudev at run
+# time), OpenNI2 (shared only, with its drivers incl. the Dummy test device). The ARM HAL tests
+# find the shared ones through LD_LIBRARY_PATH=<sysroot>/usr/lib/<triplet> (tests/CMakeLists.txt).
+PACKAGES+=(libgpiod-dev libgpiod2 libusb-1.0-0-dev libusb-1.0-0 libudev1 libopenni2-dev libopenni2-0 libjpeg62-turbo)
 # Bump when the layout produced below changes, so that old sysroots are rebuilt.
 LAYOUT=2
 stamp_text="edgefuse sysroot layout=$LAYOUT arch=$arch packages=${PACKAGES[*]}"
