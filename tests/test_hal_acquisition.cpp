@@ -201,15 +201,15 @@ TEST(HalAcquisition, DeviceThreadRecoversFromStallDropGarbageAndUnplug) {
   CHECK(watcher.start());
   CHECK(worker.start(fast_config()));
   int taken = 0;
-  CHECK(consume_until(ch, [&] { return cnt.published >= 5; }, 3000, &taken));
+  CHECK(consume_until(ch, [&] { return cnt.published >= 5; }, 20000, &taken));
   CHECK(worker.state() == DeviceState::kStreaming);
 
   // Stall: 600 ms without frames -> timeouts, a stall, reopen(s) with back-off, frames again.
   cam.inject_stall(600);
-  CHECK(consume_until(ch, [&] { return cnt.stalls >= 1; }, 3000));
+  CHECK(consume_until(ch, [&] { return cnt.stalls >= 1; }, 20000));
   const uint32_t opens = cnt.opens;
   const uint32_t after_stall = cnt.published;
-  CHECK(consume_until(ch, [&] { return cnt.published >= after_stall + 5; }, 3000, &taken));
+  CHECK(consume_until(ch, [&] { return cnt.published >= after_stall + 5; }, 20000, &taken));
   CHECK(cnt.timeouts >= 2);
   CHECK(cnt.opens >= opens);
   CHECK(worker.state() == DeviceState::kStreaming);
@@ -217,26 +217,26 @@ TEST(HalAcquisition, DeviceThreadRecoversFromStallDropGarbageAndUnplug) {
   // Drop: three frames lost inside the device -> a counted sequence gap, stream goes on.
   const uint32_t gaps = cnt.device_gaps;
   cam.inject_drop(3);
-  CHECK(consume_until(ch, [&] { return cnt.device_gaps >= gaps + 3; }, 3000, &taken));
+  CHECK(consume_until(ch, [&] { return cnt.device_gaps >= gaps + 3; }, 20000, &taken));
 
   // Garbage of every kind: rejected with its reason, never published.
   const GarbageKind kinds[] = {GarbageKind::kWrongSize, GarbageKind::kAllInvalid, GarbageKind::kStampBack};
   const FrameReject reasons[] = {FrameReject::kSize, FrameReject::kAllInvalid, FrameReject::kStamp};
   for (int k = 0; k < 3; ++k) {
     cam.inject_garbage(kinds[k]);
-    CHECK(consume_until(ch, [&] { return cnt.rejected[size_t(reasons[k])] >= 1; }, 3000, &taken));
+    CHECK(consume_until(ch, [&] { return cnt.rejected[size_t(reasons[k])] >= 1; }, 20000, &taken));
   }
 
   // Unplug: kNoDevice -> state unplugged (no reopen storm), replug -> reconnect, frames again.
   cam.set_plugged(false);
-  CHECK(consume_until(ch, [&] { return worker.state() == DeviceState::kUnplugged; }, 3000));
+  CHECK(consume_until(ch, [&] { return worker.state() == DeviceState::kUnplugged; }, 20000));
   CHECK_EQUAL(1u, cnt.disconnects.load());
   const uint32_t failures = cnt.open_failures;
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   CHECK(cnt.open_failures <= failures + 1);  // it waits for the monitor instead of retrying
   const uint32_t before_replug = cnt.published;
   cam.set_plugged(true);
-  CHECK(consume_until(ch, [&] { return cnt.published >= before_replug + 5; }, 3000, &taken));
+  CHECK(consume_until(ch, [&] { return cnt.published >= before_replug + 5; }, 20000, &taken));
   CHECK_EQUAL(1u, cnt.reconnects.load());
   CHECK(watcher.arrivals() >= 1 && watcher.departures() >= 1);
   CHECK(worker.state() == DeviceState::kStreaming);
@@ -250,7 +250,7 @@ TEST(HalAcquisition, DeviceThreadRecoversFromStallDropGarbageAndUnplug) {
 TEST(HalAcquisition, TwoSimulatedCamerasPairInTheWindow) {
   MonotonicClock& clock = monotonic_clock();
   SimDepthCameraConfig xc = sim_xtion_config(), tc = sim_tof_config();
-  xc.fps = tc.fps = 20;
+  xc.fps = tc.fps = 5;  // slow enough for qemu (ARM test runs) to render every frame
   SimDepthCamera x(xc, scene, clock), t(tc, scene, clock);
   AcquisitionCounters cx, ct;
   FrameChannel chx, cht;
@@ -261,15 +261,15 @@ TEST(HalAcquisition, TwoSimulatedCamerasPairInTheWindow) {
   CHECK(wt.start(fast_config()));
   // Window = half the frame period: whatever the phase between the two free-running cameras,
   // each frame has a partner within it.
-  FramePairer pairer(chx, cht, 25000);
+  FramePairer pairer(chx, cht, 100000);
   int pairs = 0;
-  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (pairs < 10 && std::chrono::steady_clock::now() < end) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (pairs < 5 && std::chrono::steady_clock::now() < end) {
     FramePair p;
     if (pairer.poll(p)) {
       // The cameras run unsynchronised (each starts its clock when its thread opens it).
       const int64_t dt = int64_t(p.b->stamp_us) - int64_t(p.a->stamp_us);
-      CHECK(dt >= -25000 && dt <= 25000);
+      CHECK(dt >= -100000 && dt <= 100000);
       CHECK_EQUAL(320, p.a->width);
       CHECK_EQUAL(160, p.b->width);
       ++pairs;
@@ -280,7 +280,7 @@ TEST(HalAcquisition, TwoSimulatedCamerasPairInTheWindow) {
   wx.stop();
   wt.stop();
   pairer.reset();
-  CHECK_EQUAL(10, pairs);
+  CHECK_EQUAL(5, pairs);
 }
 
 TEST(HalAcquisition, NoHeapAllocationPerFrame) {
@@ -295,13 +295,13 @@ TEST(HalAcquisition, NoHeapAllocationPerFrame) {
   CHECK(g_store_a.bind(ch, cnt));
   CameraWorker worker(cam, ch, cnt, clock, &monitor);
   CHECK(worker.start(fast_config()));
-  CHECK(consume_until(ch, [&] { return cnt.published >= 10; }, 3000));
+  CHECK(consume_until(ch, [&] { return cnt.published >= 10; }, 30000));
   edgefuse_test::alloc_count_start();
   const uint32_t start = cnt.frames;
   cam.inject_garbage(GarbageKind::kAllInvalid);  // the reject path too
   cam.inject_drop(2);
   int taken = 0;
-  CHECK(consume_until(ch, [&] { return cnt.frames >= start + 200; }, 10000, &taken));
+  CHECK(consume_until(ch, [&] { return cnt.frames >= start + 100; }, 60000, &taken));
   const long allocations = edgefuse_test::alloc_count();
   worker.stop();
   std::printf("\n  %u frames, %d taken, %ld allocations", unsigned(cnt.frames - start), taken, allocations);

@@ -56,12 +56,15 @@ TEST(HalSpace, FaultsPauseFusionWithoutLosingTheSpace) {
   ImageView<const float> norms;
   int integrated = 0;
   // Processing loop: integrate the newest frame when the device streams; pause otherwise.
-  auto run_for = [&](int ms, int* paused_polls) {
-    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
-    while (std::chrono::steady_clock::now() < end) {
+  // Processing loop until `done()` or max_ms: integrate the newest frame when one is there;
+  // count polls that find the device not streaming (fusion paused).
+  int paused = 0;
+  auto run_until = [&](auto done, int max_ms) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(max_ms);
+    while (!done() && std::chrono::steady_clock::now() < end) {
       const hal::DepthFrame* f = channel.acquire_newest();
       if (f == nullptr) {
-        if (paused_polls && worker.state() != hal::DeviceState::kStreaming) ++*paused_polls;
+        if (worker.state() != hal::DeviceState::kStreaming) ++paused;
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
         continue;
       }
@@ -75,30 +78,34 @@ TEST(HalSpace, FaultsPauseFusionWithoutLosingTheSpace) {
       ++integrated;
       channel.release(f);
     }
+    return done();
   };
-  run_for(600, nullptr);
+  // Timeouts are generous: under qemu (ARM test runs) a frame takes tens of milliseconds.
+  CHECK(run_until([&] { return integrated >= 5; }, 30000));
   const std::size_t before = vol.observed_voxels();
-  const int frames_before = integrated;
-  CHECK(frames_before >= 3);
   CHECK(before > 1000);
 
-  cam.inject_stall(500);
-  int paused = 0;
-  run_for(150, nullptr);  // frames stop: the stall is being detected
+  // The camera stalls: wait until the runtime notices (stall -> back-off), then let processing
+  // take whatever was still queued.
+  cam.inject_stall(3000);
+  CHECK(run_until([&] { return cnt.stalls >= 1; }, 30000));
+  run_until([] { return false; }, 100);
   const std::size_t stalled = vol.observed_voxels();
   CHECK(stalled >= before);
-  cam.set_plugged(false);  // and then the camera vanishes
-  run_for(300, &paused);
+  // Then it vanishes: nothing arrives, fusion is paused, the space keeps every voxel.
+  cam.set_plugged(false);
+  paused = 0;
+  run_until([] { return false; }, 300);
   CHECK(paused > 0);
-  CHECK_EQUAL(stalled, vol.observed_voxels());  // nothing integrated, nothing lost
+  CHECK_EQUAL(stalled, vol.observed_voxels());
+  // Replugged: once the stall is over, frames return and fusion resumes.
   cam.set_plugged(true);
   const int frames_at_replug = integrated;
-  run_for(1000, nullptr);
+  CHECK(run_until([&] { return integrated >= frames_at_replug + 5; }, 30000));
   worker.stop();
   const std::size_t after = vol.observed_voxels();
   std::printf("\n  voxels before %zu, during fault %zu, after %zu; frames %d + %d", before, stalled, after,
               frames_at_replug, integrated - frames_at_replug);
-  CHECK(integrated - frames_at_replug >= 5);  // fusion resumed
   CHECK(after >= stalled);
   CHECK_EQUAL(1u, cnt.reconnects.load());
 }
