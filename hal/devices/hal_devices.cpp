@@ -4,7 +4,15 @@
 #include "hal/null/null_backends.hpp"
 #include "hal/replay/replay_depth_camera.hpp"
 #include "hal/sim/sim_depth_camera.hpp"
+#include "edgefuse/io/rig.hpp"
+#include "hal/replay/replay_line_scanner.hpp"
 #include "hal/sim/sim_device_monitor.hpp"
+#include "hal/sim/sim_line_scanner.hpp"
+#include "hal/sim/sim_position.hpp"
+#include "hal/sim/sim_trigger.hpp"
+#if EDGEFUSE_HAVE_GPIOD
+#include "hal/gpiod/gpiod_trigger.hpp"
+#endif
 #if EDGEFUSE_HAVE_OPENNI2
 #include "hal/openni2/openni2_depth_camera.hpp"
 #endif
@@ -22,6 +30,11 @@ struct HalDevices::Owned {
   std::vector<std::unique_ptr<io::DepthSequence>> sequences;
   std::unique_ptr<SimDeviceMonitor> sim_monitor;
   std::unique_ptr<DeviceMonitor> usb_monitor;
+  std::unique_ptr<TriggerInput> trigger;
+  std::unique_ptr<PositionSource> axis;
+  std::unique_ptr<LineScanner> scanner;
+  std::unique_ptr<io::LineScan> line_scan;
+  std::string trigger_chip;
 #if EDGEFUSE_HAVE_OPENNI2
   std::vector<std::unique_ptr<Openni2CameraConfig>> oni_configs;
 #endif
@@ -43,6 +56,9 @@ const char* HalDevices::built_backends() {
 #endif
 #if EDGEFUSE_HAVE_LIBUSB
          " libusb"
+#endif
+#if EDGEFUSE_HAVE_GPIOD
+         " gpiod"
 #endif
       ;
 }
@@ -144,6 +160,46 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
 #else
   (void)any_usb;  // without libusb a vanished camera is retried with back-off
 #endif
+  if (!board.scanners.empty()) {
+    const io::BoardScanner& sc = board.scanners[0];
+    const std::string where = "line_scanner '" + sc.name + "'";
+    const bool replay = !replay_override.empty() || sc.backend == io::ScannerBackend::kReplay;
+    if (replay) {
+      if (replay_override.empty()) {
+        err = where + ": replay needs a rig set (edgefuse acquire --replay DATASET)";
+        return false;
+      }
+      io::RigToml rig;
+      std::unique_ptr<io::LineScan> scan(new io::LineScan);
+      if (!io::read_rig_toml(replay_override + "/rig.toml", rig, err) ||
+          !io::open_line_scan(rig, sc.name, *scan, err)) {
+        err = where + ": replay: " + err;
+        return false;
+      }
+      owned_->scanner.reset(new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock));
+      owned_->line_scan = std::move(scan);
+    } else if (sc.backend == io::ScannerBackend::kSim) {
+      const io::BoardPin* pin = sc.trigger_pin.empty() ? nullptr : board.find_pin(sc.trigger_pin);
+      if (pin) {
+#if EDGEFUSE_HAVE_GPIOD
+        owned_->trigger_chip = pin->chip;
+        GpiodLineConfig lc;
+        lc.chip = owned_->trigger_chip.c_str();
+        lc.offset = unsigned(pin->offset);
+        owned_->trigger.reset(new GpiodTriggerInput(lc, *libgpiod_api(), clock));
+#else
+        err = where + ": trigger_pin '" + sc.trigger_pin + "' needs the gpiod backend; built: " + built_backends();
+        return false;
+#endif
+      } else {
+        owned_->trigger.reset(new SimTriggerInput(10000u, clock));  // 100 profiles per second
+      }
+      // The robot moves the scanner at 0.1 m/s from the start of the stream.
+      owned_->axis.reset(new SimLinearAxis(clock.now_us(), 0.0, 0.1));
+      owned_->scanner.reset(new SimLineScanner(sim_laser_config(), scene_, *owned_->trigger, *owned_->axis));
+    }
+    scanner_ = owned_->scanner.get();
+  }
   // Faults are injected through the simulated monitor even when libusb watches the real bus.
   for (DepthCamera* cam : cameras_) faults_.emplace_back(new FaultCamera(*cam, clock, owned_->sim_monitor.get()));
   return true;

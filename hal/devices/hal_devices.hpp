@@ -1,6 +1,8 @@
 // The board's devices built from board/<name>/hal.toml at start-up (the one place that knows every
 // backend): each [[camera]] becomes a sim, replay, openni2, v4l2 or null DepthCamera, wrapped in a
-// FaultCamera so the console can inject faults into any of them; the hot-plug monitor is libusb
+// FaultCamera so the console can inject faults into any of them; the first [[line_scanner]] becomes
+// a sim scanner (fired by a free-running simulated trigger at 100 Hz, or by the gpiod line of its
+// trigger_pin when this build has libgpiod) or a replay of a rig set's profiles; the hot-plug monitor is libusb
 // when a camera lists USB ids (and libusb is built), else the simulated one. Backends that this
 // build lacks (no OpenNI2, libusb...) are refused with a message naming the camera.
 // Start-up only: this allocates; the objects then live until exit.
@@ -15,6 +17,8 @@
 #include "edgefuse/hal/device_monitor.hpp"
 #include "edgefuse/io/board_hal.hpp"
 #include "hal/sim/fault_camera.hpp"
+#include "edgefuse/hal/line_scanner.hpp"
+#include "edgefuse/hal/trigger.hpp"
 #include "hal/sim/sim_scene.hpp"
 
 namespace edgefuse::hal {
@@ -33,6 +37,8 @@ class HalDevices {
   FaultCamera& camera(int i) { return *faults_[std::size_t(i)]; }
   const io::BoardCamera& camera_config(int i) const { return configs_[std::size_t(i)]; }
   DeviceMonitor& monitor() { return *monitor_; }
+  //! The line scanner, or null when the board has none.
+  LineScanner* scanner() { return scanner_; }
   //! Names of the backends compiled into this build ("sim replay v4l2 ...").
   static const char* built_backends();
 
@@ -44,6 +50,7 @@ class HalDevices {
   std::vector<DepthCamera*> cameras_;
   std::vector<std::unique_ptr<FaultCamera>> faults_;
   DeviceMonitor* monitor_ = nullptr;
+  LineScanner* scanner_ = nullptr;
 };
 
 }  // namespace edgefuse::hal

@@ -18,6 +18,7 @@
 #include "edgefuse/memory/arena.hpp"
 #include "hal/acquisition/camera_worker.hpp"
 #include "hal/acquisition/frame_pairer.hpp"
+#include "hal/acquisition/scanner_worker.hpp"
 #include "hal/devices/hal_devices.hpp"
 #include "hal/posix/monotonic_clock.hpp"
 
@@ -31,6 +32,10 @@ constexpr int kPixels = kBuildBoard.image_width_max * kBuildBoard.image_height_m
 hal::FrameChannelStorage<kPixels, 6> g_pools[kMaxCameras];
 hal::AcquisitionCounters g_counters[kMaxCameras];
 hal::FrameChannel g_channels[kMaxCameras];
+// The line scanner's profiles (up to 1024 beams), 15 slots drained every 2 ms: every profile is kept.
+hal::ProfileChannelStorage<1024, 15> g_profile_pool;
+hal::AcquisitionCounters g_profile_counters;
+hal::ProfileChannel g_profiles;
 
 int usage(const char* why) {
   std::fprintf(stderr,
@@ -84,6 +89,19 @@ int cmd_acquire(int argc, char** argv) {
       return 1;
     }
   }
+  std::unique_ptr<hal::ScannerWorker> scanner_worker;
+  long profiles = 0;
+  hal::LineScanner* scanner = devices.scanner();
+  if (scanner != nullptr) {
+    if (scanner->info().beams > 1024) {
+      std::fprintf(stderr, "edgefuse acquire: line scanner '%s' has %d beams, more than 1024\n", scanner->name(),
+                   scanner->info().beams);
+      return 1;
+    }
+    g_profile_pool.bind(g_profiles, g_profile_counters);
+    scanner_worker.reset(new hal::ScannerWorker(*scanner, g_profiles, g_profile_counters));
+    scanner_worker->start(hal::ScannerWorkerConfig{});
+  }
   hal::FramePairer pairer(g_channels[0], g_channels[n > 1 ? 1 : 0], 20000);
   const auto t0 = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
@@ -107,6 +125,7 @@ int cmd_acquire(int argc, char** argv) {
       ++taken[0];
       g_channels[0].release(f);
     }
+    profiles += g_profiles.drain([](const hal::LineProfile&) {});
     if (!fault_done && elapsed() >= fault_at) {
       hal::FaultCamera& cam = devices.camera(0);
       if (fault == "stall") cam.inject_stall(1500);
@@ -127,21 +146,33 @@ int cmd_acquire(int argc, char** argv) {
         hal::format_counters(g_counters[i], line, sizeof(line));
         std::printf("%d s %-6s %s taken=%ld\n", next_report, devices.camera(i).name(), line, taken[i]);
       }
+      if (scanner != nullptr) {
+        char line[512];
+        hal::format_counters(g_profile_counters, line, sizeof(line));
+        std::printf("%d s %-6s %s taken=%ld\n", next_report, scanner->name(), line, profiles);
+      }
       ++next_report;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
   for (int i = 0; i < n; ++i) workers[i]->stop();
+  if (scanner_worker) scanner_worker->stop();
+  profiles += g_profiles.drain([](const hal::LineProfile&) {});
   pairer.reset();
   for (int i = 0; i < n; ++i) {
     char line[512];
     hal::format_counters(g_counters[i], line, sizeof(line));
     std::printf("end %-6s %s taken=%ld\n", devices.camera(i).name(), line, taken[i]);
   }
+  if (scanner != nullptr) {
+    char line[512];
+    hal::format_counters(g_profile_counters, line, sizeof(line));
+    std::printf("end %-6s %s taken=%ld\n", scanner->name(), line, profiles);
+  }
   long total = 0;
   for (int i = 0; i < n; ++i) total += taken[i];
-  std::printf("cameras=%d frames_taken=%ld pairs=%u unpaired=%u\n", n, total, n > 1 ? pairer.pairs() : 0u,
-              n > 1 ? pairer.unpaired_a() + pairer.unpaired_b() : 0u);
+  std::printf("cameras=%d frames_taken=%ld pairs=%u unpaired=%u profiles=%ld\n", n, total,
+              n > 1 ? pairer.pairs() : 0u, n > 1 ? pairer.unpaired_a() + pairer.unpaired_b() : 0u, profiles);
   return total > 0 ? 0 : 1;
 }
 
