@@ -1,7 +1,9 @@
 // Pairs frames of two rigidly mounted sensors (e.g. xtion + tof) by nearest stamp within a window:
 // the newest frame of stream A is matched with the ready frame of B nearest to it in time. A frame
 // that is older than the other stream's by more than the window can never be matched later (the
-// other stream only brings newer frames), so it is returned unpaired and counted.
+// other stream only brings newer frames), so it is returned unpaired and counted. The streams'
+// delivery latencies must differ by less than what the faster stream's channel holds (its slots
+// times its frame period), else the late stream's frames find no partner left.
 #pragma once
 
 #include <cstdint>
