@@ -12,6 +12,9 @@ PACKAGES=(
   # pose link (issue 7, feat/link): nanopb generator + runtime, protoc and Python protobuf for
   # tools/listen.py and its tests
   nanopb libnanopb-dev protobuf-compiler python3-protobuf
+  # HAL device backends (issue 6): OpenNI2 (with its Dummy test device), libgpiod 1.6, libusb 1.0;
+  # V4L2 needs only linux/videodev2.h (linux-libc-dev, with the compiler).
+  libopenni2-dev libgpiod-dev libusb-1.0-0-dev
 )
 
 missing=()

@@ -15,5 +15,6 @@ int cmd_fuse_rig(int argc, char** argv);  //!< `fuse RIGSET --sensors ...` (call
 int cmd_listen(int argc, char** argv);
 // localisation (issue 5)
 int cmd_localize(int argc, char** argv);
+int cmd_acquire(int argc, char** argv);  // HAL (issue 6)
 
 }  // namespace edgefuse::cli

@@ -25,6 +25,8 @@ const Command kCommands[] = {
     {"listen", edgefuse::cli::cmd_listen, "decode and print the pose link (serial, TCP, UDP or a captured file)"},
     // localisation (issue 5)
     {"localize", edgefuse::cli::cmd_localize, "object poses (--model FILE.ply ...) or model-free segments (--segments)"},
+    // HAL (issue 6)
+    {"acquire", edgefuse::cli::cmd_acquire, "run the board's cameras through the acquisition runtime, print status"},
 };
 
 void usage(std::FILE* out) {

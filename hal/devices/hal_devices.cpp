@@ -1,0 +1,208 @@
+#include "hal/devices/hal_devices.hpp"
+
+#include "edgefuse/io/dataset.hpp"
+#include "hal/null/null_backends.hpp"
+#include "hal/replay/replay_depth_camera.hpp"
+#include "hal/sim/sim_depth_camera.hpp"
+#include "edgefuse/io/rig.hpp"
+#include "hal/replay/replay_line_scanner.hpp"
+#include "hal/sim/sim_device_monitor.hpp"
+#include "hal/sim/sim_line_scanner.hpp"
+#include "hal/sim/sim_position.hpp"
+#include "hal/sim/sim_trigger.hpp"
+#if EDGEFUSE_HAVE_GPIOD
+#include "hal/gpiod/gpiod_trigger.hpp"
+#endif
+#if EDGEFUSE_HAVE_OPENNI2
+#include "hal/openni2/openni2_depth_camera.hpp"
+#endif
+#if EDGEFUSE_HAVE_V4L2
+#include "hal/v4l2/v4l2_depth_camera.hpp"
+#endif
+#if EDGEFUSE_HAVE_LIBUSB
+#include "hal/libusb/usb_device_monitor.hpp"
+#endif
+
+namespace edgefuse::hal {
+
+struct HalDevices::Owned {
+  std::vector<std::unique_ptr<DepthCamera>> cameras;
+  std::vector<std::unique_ptr<io::DepthSequence>> sequences;
+  std::unique_ptr<SimDeviceMonitor> sim_monitor;
+  std::unique_ptr<DeviceMonitor> usb_monitor;
+  std::unique_ptr<TriggerInput> trigger;
+  std::unique_ptr<PositionSource> axis;
+  std::unique_ptr<LineScanner> scanner;
+  std::unique_ptr<io::LineScan> line_scan;
+  std::string trigger_chip;
+#if EDGEFUSE_HAVE_OPENNI2
+  std::vector<std::unique_ptr<Openni2CameraConfig>> oni_configs;
+#endif
+#if EDGEFUSE_HAVE_V4L2
+  std::vector<std::unique_ptr<V4l2CameraConfig>> v4l2_configs;
+#endif
+};
+
+HalDevices::HalDevices() : owned_(new Owned) { default_bin_scene(scene_); }
+HalDevices::~HalDevices() = default;
+
+const char* HalDevices::built_backends() {
+  return "sim replay null"
+#if EDGEFUSE_HAVE_OPENNI2
+         " openni2"
+#endif
+#if EDGEFUSE_HAVE_V4L2
+         " v4l2"
+#endif
+#if EDGEFUSE_HAVE_LIBUSB
+         " libusb"
+#endif
+#if EDGEFUSE_HAVE_GPIOD
+         " gpiod"
+#endif
+      ;
+}
+
+bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override) {
+  owned_->sim_monitor.reset(new SimDeviceMonitor(clock));
+  monitor_ = owned_->sim_monitor.get();
+  bool any_usb = false;
+  for (const io::BoardCamera& c : board.cameras) {
+    std::unique_ptr<DepthCamera> cam;
+    const io::CameraBackend backend = replay_override.empty() ? c.backend : io::CameraBackend::kReplay;
+    const std::string where = "camera '" + c.name + "'";
+    switch (backend) {
+      case io::CameraBackend::kSim: {
+        SimDepthCameraConfig sc;
+        if (c.name == "xtion")
+          sc = sim_xtion_config();
+        else if (c.name == "tof")
+          sc = sim_tof_config();
+        else {
+          err = where + ": the sim backend knows the rig's 'xtion' and 'tof'";
+          return false;
+        }
+        if (c.fps > 0) sc.fps = c.fps;
+        cam.reset(new SimDepthCamera(sc, scene_, clock));
+        break;
+      }
+      case io::CameraBackend::kReplay: {
+        const std::string folder = replay_override.empty() ? c.uri : replay_override;
+        std::unique_ptr<io::DepthSequence> seq(new io::DepthSequence);
+        std::string e;
+        // A rig set replays the sensor of the camera's name; other layouts take no sensor name.
+        if (!io::open_depth_sequence(folder, c.name, *seq, e) && !io::open_depth_sequence(folder, "", *seq, e)) {
+          err = where + ": replay: " + e;
+          return false;
+        }
+        cam.reset(new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, true));
+        owned_->sequences.push_back(std::move(seq));
+        break;
+      }
+      case io::CameraBackend::kOpenni2: {
+#if EDGEFUSE_HAVE_OPENNI2
+        std::unique_ptr<Openni2CameraConfig> oc(new Openni2CameraConfig);
+        oc->name = c.name.c_str();
+        oc->uri = c.uri.c_str();
+        if (c.width) oc->width = c.width;
+        if (c.height) oc->height = c.height;
+        if (c.fps) oc->fps = c.fps;
+        if (c.has_intrinsics) {
+          oc->intr.fx = float(c.fx);
+          oc->intr.fy = float(c.fy);
+          oc->intr.cx = float(c.cx);
+          oc->intr.cy = float(c.cy);
+        }
+        cam.reset(new Openni2DepthCamera(*oc, clock));
+        owned_->oni_configs.push_back(std::move(oc));
+        break;
+#else
+        err = where + ": this build has no openni2 backend (libopenni2-dev missing); built: " + built_backends();
+        return false;
+#endif
+      }
+      case io::CameraBackend::kV4l2: {
+#if EDGEFUSE_HAVE_V4L2
+        std::unique_ptr<V4l2CameraConfig> vc(new V4l2CameraConfig);
+        vc->name = c.name.c_str();
+        vc->device = c.uri.c_str();
+        vc->intr.width = c.width;
+        vc->intr.height = c.height;
+        vc->intr.fx = float(c.fx);
+        vc->intr.fy = float(c.fy);
+        vc->intr.cx = float(c.cx);
+        vc->intr.cy = float(c.cy);
+        vc->depth_unit_m = float(c.depth_unit_m);
+        if (c.fps) vc->fps = c.fps;
+        cam.reset(new V4l2DepthCamera(*vc, linux_v4l2_sys()));
+        owned_->v4l2_configs.push_back(std::move(vc));
+        break;
+#else
+        err = where + ": this build has no v4l2 backend; built: " + built_backends();
+        return false;
+#endif
+      }
+      case io::CameraBackend::kNull: cam.reset(new NullDepthCamera); break;
+    }
+    any_usb = any_usb || (c.has_usb && replay_override.empty() && backend != io::CameraBackend::kSim);
+    configs_.push_back(c);
+    cameras_.push_back(cam.get());
+    owned_->cameras.push_back(std::move(cam));
+  }
+#if EDGEFUSE_HAVE_LIBUSB
+  if (any_usb) {
+    std::unique_ptr<UsbDeviceMonitor> usb(new UsbDeviceMonitor(libusb_api(), clock));
+    for (const io::BoardCamera& c : configs_)
+      if (c.has_usb) usb->watch(c.name.c_str(), c.usb_vid, c.usb_pid);
+    monitor_ = usb.get();
+    owned_->usb_monitor = std::move(usb);
+  }
+#else
+  (void)any_usb;  // without libusb a vanished camera is retried with back-off
+#endif
+  if (!board.scanners.empty()) {
+    const io::BoardScanner& sc = board.scanners[0];
+    const std::string where = "line_scanner '" + sc.name + "'";
+    const bool replay = !replay_override.empty() || sc.backend == io::ScannerBackend::kReplay;
+    if (replay) {
+      if (replay_override.empty()) {
+        err = where + ": replay needs a rig set (edgefuse acquire --replay DATASET)";
+        return false;
+      }
+      io::RigToml rig;
+      std::unique_ptr<io::LineScan> scan(new io::LineScan);
+      if (!io::read_rig_toml(replay_override + "/rig.toml", rig, err) ||
+          !io::open_line_scan(rig, sc.name, *scan, err)) {
+        err = where + ": replay: " + err;
+        return false;
+      }
+      owned_->scanner.reset(new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock));
+      owned_->line_scan = std::move(scan);
+    } else if (sc.backend == io::ScannerBackend::kSim) {
+      const io::BoardPin* pin = sc.trigger_pin.empty() ? nullptr : board.find_pin(sc.trigger_pin);
+      if (pin) {
+#if EDGEFUSE_HAVE_GPIOD
+        owned_->trigger_chip = pin->chip;
+        GpiodLineConfig lc;
+        lc.chip = owned_->trigger_chip.c_str();
+        lc.offset = unsigned(pin->offset);
+        owned_->trigger.reset(new GpiodTriggerInput(lc, *libgpiod_api(), clock));
+#else
+        err = where + ": trigger_pin '" + sc.trigger_pin + "' needs the gpiod backend; built: " + built_backends();
+        return false;
+#endif
+      } else {
+        owned_->trigger.reset(new SimTriggerInput(10000u, clock));  // 100 profiles per second
+      }
+      // The robot moves the scanner at 0.1 m/s from the start of the stream.
+      owned_->axis.reset(new SimLinearAxis(clock.now_us(), 0.0, 0.1));
+      owned_->scanner.reset(new SimLineScanner(sim_laser_config(), scene_, *owned_->trigger, *owned_->axis));
+    }
+    scanner_ = owned_->scanner.get();
+  }
+  // Faults are injected through the simulated monitor even when libusb watches the real bus.
+  for (DepthCamera* cam : cameras_) faults_.emplace_back(new FaultCamera(*cam, clock, owned_->sim_monitor.get()));
+  return true;
+}
+
+}  // namespace edgefuse::hal

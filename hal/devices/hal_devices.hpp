@@ -1,0 +1,56 @@
+// The board's devices built from board/<name>/hal.toml at start-up (the one place that knows every
+// backend): each [[camera]] becomes a sim, replay, openni2, v4l2 or null DepthCamera, wrapped in a
+// FaultCamera so the console can inject faults into any of them; the first [[line_scanner]] becomes
+// a sim scanner (fired by a free-running simulated trigger at 100 Hz, or by the gpiod line of its
+// trigger_pin when this build has libgpiod) or a replay of a rig set's profiles; the hot-plug monitor is libusb
+// when a camera lists USB ids (and libusb is built), else the simulated one. Backends that this
+// build lacks (no OpenNI2, libusb...) are refused with a message naming the camera.
+// Start-up only: this allocates; the objects then live until exit.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "edgefuse/hal/clock.hpp"
+#include "edgefuse/hal/depth_camera.hpp"
+#include "edgefuse/hal/device_monitor.hpp"
+#include "edgefuse/io/board_hal.hpp"
+#include "hal/sim/fault_camera.hpp"
+#include "edgefuse/hal/line_scanner.hpp"
+#include "edgefuse/hal/trigger.hpp"
+#include "hal/sim/sim_scene.hpp"
+
+namespace edgefuse::hal {
+
+class HalDevices {
+ public:
+  HalDevices();
+  ~HalDevices();
+  //! Builds every camera and the monitor of `board`.
+  //! \param board parsed hal.toml  \param clock the HAL clock  \param err names the failing camera
+  //! \param replay_override a data set folder: every camera replays its sensor from it instead
+  bool build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override = "");
+  int camera_count() const { return int(cameras_.size()); }
+  //! Camera i as the runtime uses it (inside its FaultCamera).
+  //! \param i index in hal.toml order
+  FaultCamera& camera(int i) { return *faults_[std::size_t(i)]; }
+  const io::BoardCamera& camera_config(int i) const { return configs_[std::size_t(i)]; }
+  DeviceMonitor& monitor() { return *monitor_; }
+  //! The line scanner, or null when the board has none.
+  LineScanner* scanner() { return scanner_; }
+  //! Names of the backends compiled into this build ("sim replay v4l2 ...").
+  static const char* built_backends();
+
+ private:
+  struct Owned;
+  std::unique_ptr<Owned> owned_;
+  SimScene scene_;
+  std::vector<io::BoardCamera> configs_;
+  std::vector<DepthCamera*> cameras_;
+  std::vector<std::unique_ptr<FaultCamera>> faults_;
+  DeviceMonitor* monitor_ = nullptr;
+  LineScanner* scanner_ = nullptr;
+};
+
+}  // namespace edgefuse::hal

@@ -1,0 +1,69 @@
+// OpenNI2 depth camera (PrimeSense / Asus Xtion / Kinect v1 class): depth in 1 mm or 100 um
+// formats, optional colour registered to depth by the device, a device URI ("" = any device,
+// "Dummy" = OpenNI2's built-in test device, or a path to an .oni recording).
+//
+// OpenNI2 allocates inside the library for every frame (its frame pool and the driver's); this
+// backend copies each frame into the caller's static buffer and allocates nothing itself.
+// Device time stamps (microseconds on the device clock) are mapped to the HAL clock by the offset
+// seen at the first frame after start(), re-synchronised when they drift by more than 100 ms.
+// OpenNI.h stays inside openni2_depth_camera.cpp (pimpl), so users see no platform header.
+#pragma once
+
+#include <cstdint>
+
+#include "edgefuse/hal/clock.hpp"
+#include "edgefuse/hal/depth_camera.hpp"
+
+namespace edgefuse::hal {
+
+enum class Openni2DepthFormat : uint8_t { k1mm, k100um };
+
+struct Openni2CameraConfig {
+  const char* name = "xtion";  //!< board device name
+  const char* uri = "";        //!< "" any device, "Dummy", or an .oni file path
+  int width = 640;             //!< requested depth mode
+  int height = 480;
+  int fps = 30;
+  Openni2DepthFormat format = Openni2DepthFormat::k1mm;
+  bool colour = true;          //!< also stream RGB888 registered to depth (when the device has colour)
+  PinholeIntrinsics intr;      //!< used when the device reports no field of view (fx = 0: derive from FOV)
+};
+
+class Openni2DepthCamera final : public DepthCamera {
+ public:
+  //! \param config device and mode  \param clock HAL clock (stamp mapping)
+  Openni2DepthCamera(const Openni2CameraConfig& config, Clock& clock);
+  ~Openni2DepthCamera() override;
+  Openni2DepthCamera(const Openni2DepthCamera&) = delete;
+  Openni2DepthCamera& operator=(const Openni2DepthCamera&) = delete;
+
+  const char* name() const override { return config_.name; }
+  int mode_count() const override { return 1; }
+  bool mode(int index, DepthMode& mode) const override;
+  HalStatus start(int mode_index) override;
+  void stop() override;
+  PinholeIntrinsics intrinsics() const override { return intr_; }
+  HalStatus next_frame(DepthFrame& frame, uint32_t timeout_ms) override;
+
+  //! What went wrong last (names the URI; includes OpenNI's extended error and offered modes).
+  const char* last_error() const { return error_; }
+  //! Whether colour frames are registered to depth by the device.
+  bool colour_registered() const { return colour_registered_; }
+
+ private:
+  struct Impl;
+  HalStatus fail(HalStatus s, const char* what);
+
+  Openni2CameraConfig config_;
+  Clock& clock_;
+  Impl* impl_ = nullptr;  // created once in the constructor (start-up)
+  PinholeIntrinsics intr_;
+  bool running_ = false;
+  bool colour_registered_ = false;
+  bool have_offset_ = false;
+  int64_t offset_us_ = 0;  // HAL clock - device clock
+  uint64_t last_stamp_us_ = 0;
+  char error_[512] = {};
+};
+
+}  // namespace edgefuse::hal

@@ -1,0 +1,54 @@
+// Replays a recorded depth sequence (TUM folder, per-frame folder or a rig set's sensor; see
+// io::open_depth_sequence and ../shared/docs/FORMATS.md) as a DepthCamera: at the recorded rate
+// on the HAL clock or as fast as possible. Stamps keep the recording's spacing (start time + the
+// frame's offset in the recording), so paired replays of a rig's sensors pair as they were
+// recorded. Host-side: decoding the PNGs allocates inside libpng (the decode buffers are kept).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "edgefuse/hal/clock.hpp"
+#include "edgefuse/hal/depth_camera.hpp"
+#include "edgefuse/io/dataset.hpp"
+
+namespace edgefuse::hal {
+
+enum class ReplayRate : uint8_t { kRecorded, kFastest };
+
+class ReplayDepthCamera final : public DepthCamera {
+ public:
+  //! \param seq the opened sequence (kept by reference)  \param rate pacing  \param clock time base
+  //! \param loop start again after the last frame (else kEndOfStream)
+  ReplayDepthCamera(const io::DepthSequence& seq, ReplayRate rate, Clock& clock, bool loop = false);
+
+  const char* name() const override { return seq_.sensor_name.c_str(); }
+  int mode_count() const override { return 1; }
+  bool mode(int index, DepthMode& mode) const override;
+  HalStatus start(int mode_index) override;
+  void stop() override { running_ = false; }
+  PinholeIntrinsics intrinsics() const override { return seq_.intr; }
+  HalStatus next_frame(DepthFrame& frame, uint32_t timeout_ms) override;
+
+  //! Why the last next_frame failed with kBadFrame (names the file).
+  const std::string& last_error() const { return error_; }
+  //! Index in the sequence of the frame delivered last.
+  std::size_t last_index() const { return index_ == 0 ? 0 : index_ - 1; }
+
+ private:
+  const io::DepthSequence& seq_;
+  ReplayRate rate_;
+  Clock& clock_;
+  bool loop_;
+  bool running_ = false;
+  std::size_t index_ = 0;
+  uint32_t sequence_ = 0;
+  uint64_t start_us_ = 0;
+  uint64_t loop_offset_us_ = 0;
+  std::vector<uint16_t> depth_, amplitude_;
+  std::vector<Rgb8> colour_;
+  std::string error_;
+};
+
+}  // namespace edgefuse::hal
