@@ -185,3 +185,14 @@ TEST(HalSim, NullBackendsReportNoDevice) {
   NullDeviceMonitor mon;
   CHECK(mon.present("xtion"));
 }
+
+TEST(HalSim, AxisGoesBackAndForthOverItsTravel) {
+  SimLinearAxis axis(0, 0.0, 0.1, 0.3);
+  double p = 0;
+  axis.position_at(1000000, p);
+  DOUBLES_EQUAL(0.1, p, 1e-9);
+  axis.position_at(4000000, p);  // 0.4 m travelled: 0.1 m back from the end
+  DOUBLES_EQUAL(0.2, p, 1e-9);
+  axis.position_at(6500000, p);  // 0.65 m: past a full round trip
+  DOUBLES_EQUAL(0.05, p, 1e-9);
+}

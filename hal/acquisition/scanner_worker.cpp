@@ -77,11 +77,8 @@ void ScannerWorker::run() {
       r = FrameReject::kSize;
     } else if (p.stamp_us <= last_stamp_us) {
       r = FrameReject::kStamp;
-    } else {
-      int i = 0;
-      while (i < p.beams && !(p.ranges_m[i] > 0)) ++i;
-      if (i == p.beams) r = FrameReject::kAllInvalid;
     }
+    // A profile without returns is kept: it says that the fan saw nothing in range there.
     if (r != FrameReject::kNone) {
       counters_.rejected[size_t(r)].fetch_add(1, std::memory_order_relaxed);
       continue;

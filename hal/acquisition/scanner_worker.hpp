@@ -1,5 +1,5 @@
 // One thread per line scanner: profiles (one per trigger edge) into a ProfileChannel, checked
-// (beam count, monotonic stamp, at least one return). A pause in triggering is normal (the axis
+// (beam count, monotonic stamp; a profile without returns is valid data: nothing in range). A pause in triggering is normal (the axis
 // stands still), so timeouts are counted but do not reopen the device; a vanished or failing
 // scanner is reopened with back-off. Processing drains every profile (none may be skipped: each
 // is one slice of the scan), so the channel's pool should cover a processing hiccup.

@@ -194,8 +194,9 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
       } else {
         owned_->trigger.reset(new SimTriggerInput(10000u, clock));  // 100 profiles per second
       }
-      // The robot moves the scanner at 0.1 m/s from the start of the stream.
-      owned_->axis.reset(new SimLinearAxis(clock.now_us(), 0.0, 0.1));
+      // The robot moves the scanner at 0.1 m/s back and forth over the bin's 0.3 m (bin_rig_a's
+      // laser path starts at the bin's -y wall).
+      owned_->axis.reset(new SimLinearAxis(clock.now_us(), 0.0, 0.1, 0.299));
       owned_->scanner.reset(new SimLineScanner(sim_laser_config(), scene_, *owned_->trigger, *owned_->axis));
     }
     scanner_ = owned_->scanner.get();
