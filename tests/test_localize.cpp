@@ -3,7 +3,9 @@
 // a corrupt model (clear error at start-up), model-free segments, and zero heap allocations while
 // localising.
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <thread>
 #include <vector>
 
 #include "alloc_counter.hpp"
@@ -274,4 +276,61 @@ TEST(Localize, SegmentsTwoBoxesAndAllocatesNothingWhileLocalising) {
   LONGS_EQUAL(2, again);
   CHECK(loc.results()[0].T_world_object.t == p0.t);
   CHECK(loc.results()[0].T_world_object.R == p0.R);
+}
+
+namespace {
+// A parallel-for on 3 threads started per call (test only: the board uses its worker pool).
+void threads_run(void*, std::size_t count, void (*body)(void*, std::size_t), void* context) {
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    for (std::size_t i = next.fetch_add(1); i < count; i = next.fetch_add(1)) body(context, i);
+  };
+  std::thread t1(work), t2(work);
+  work();
+  t1.join();
+  t2.join();
+}
+}  // namespace
+
+TEST(Localize, SameResultsOnAnyThreadCount) {
+  Localizer loc;
+  CHECK(loc.init(buffers()) == Status::kOk);
+  std::vector<Vec3f> v;
+  std::vector<std::array<uint32_t, 3>> t;
+  box_mesh(kHalf, v, t);
+  LocalizeParams params;
+  int index = -1;
+  CHECK(loc.add_model("box", v.data(), v.size(), reinterpret_cast<const uint32_t(*)[3]>(t.data()), t.size(), params,
+                      index) == Status::kOk);
+  Scene scene;
+  scene.add_plane(Vec3f(0, 0, 1), 0.0f);
+  Pose a, b;
+  a.R = Eigen::AngleAxisf(0.3f, Vec3f::UnitZ()).toRotationMatrix();
+  a.t = Vec3f(-0.05f, 0.0f, kHalf.z());
+  b.R = Eigen::AngleAxisf(-0.7f, Vec3f::UnitZ()).toRotationMatrix();
+  b.t = Vec3f(0.06f, 0.03f, kHalf.z());
+  scene.add_box(a.t, kHalf, a);
+  scene.add_box(b.t, kHalf, b);
+  TsdfVolume vol;
+  SceneContext ctx;
+  const std::size_t n = fuse(scene, vol, ctx.viewpoint_m);
+  LocalizedObject serial[kObjects];
+  std::size_t count_serial = 0, count_parallel = 0;
+  CHECK(loc.set_scene(g_points, n, ctx, &vol, 0.0075f) == Status::kOk);
+  CHECK(loc.remove_bin(params) == Status::kOk);
+  CHECK(loc.localize(params, kObjects, count_serial) == Status::kOk);
+  for (std::size_t i = 0; i < count_serial; ++i) serial[i] = loc.results()[i];
+  ParallelFor pf;
+  pf.run = &threads_run;
+  loc.set_parallel(pf);
+  CHECK(loc.set_scene(g_points, n, ctx, &vol, 0.0075f) == Status::kOk);
+  CHECK(loc.remove_bin(params) == Status::kOk);
+  CHECK(loc.localize(params, kObjects, count_parallel) == Status::kOk);
+  LONGS_EQUAL(2, count_serial);
+  LONGS_EQUAL(count_serial, count_parallel);
+  for (std::size_t i = 0; i < count_serial; ++i) {  // bit-identical
+    CHECK(loc.results()[i].T_world_object.t == serial[i].T_world_object.t);
+    CHECK(loc.results()[i].T_world_object.R == serial[i].T_world_object.R);
+    CHECK(loc.results()[i].score == serial[i].score);
+  }
 }

@@ -191,6 +191,21 @@ void Localizer::sort_picking_order(std::size_t count) const {
   });
 }
 
+void Localizer::refine_job(void* self, std::size_t k) {
+  const Localizer& me = *static_cast<const Localizer*>(self);
+  const LocalizeParams& params = *me.job_params_;
+  LocalizedObject& slot = me.b_.verified[k];
+  const int m = slot.model;
+  Pose T = slot.T_world_object;
+  LocalizedObject h;
+  if (me.refine(m, T, params)) {
+    me.verify(m, T, params, h, -1, nullptr);
+    if (h.score < params.min_score || h.support < uint32_t(params.min_support) || h.free_space > params.max_free_space)
+      h.model = -1;
+  }
+  slot = h;  // model -1: rejected
+}
+
 Status Localizer::localize(const LocalizeParams& params, int max_results, std::size_t& count) {
   count = 0;
   if (!b_.scene) return Status::kNotInitialised;
@@ -240,15 +255,24 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
         continue;
       }
       ++refined;
-      Pose T = clusters[c].T;
-      if (!refine(m, T, params)) continue;
-      LocalizedObject h;
-      verify(m, T, params, h, -1, nullptr);
-      if (h.score < params.min_score || h.support < uint32_t(params.min_support) || h.free_space > params.max_free_space)
-        continue;
-      if (nverified < std::size_t(b_.models_max) * kClustersPerModel) b_.verified[nverified++] = h;
+      // Queued: refined and verified below, all models' hypotheses in one parallel batch.
+      if (nverified < std::size_t(b_.models_max) * kClustersPerModel) {
+        b_.verified[nverified] = LocalizedObject{};
+        b_.verified[nverified].model = m;
+        b_.verified[nverified++].T_world_object = clusters[c].T;
+      }
     }
   }
+  // Refine + verify every queued hypothesis (independent, read-only on the scene: any thread
+  // count gives the same results), then keep the accepted ones in queue order.
+  job_params_ = &params;
+  if (parallel_.run) parallel_.run(parallel_.runner, nverified, &Localizer::refine_job, this);
+  else
+    for (std::size_t k = 0; k < nverified; ++k) refine_job(this, k);
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < nverified; ++k)
+    if (b_.verified[k].model >= 0) b_.verified[kept++] = b_.verified[k];
+  nverified = kept;
   // Best first (explained surface x supported share); a hypothesis whose support is mostly claimed
   // by a better one is a duplicate (or a symmetric twin) or a conflicting explanation.
   std::sort(b_.verified, b_.verified + nverified, [](const LocalizedObject& a, const LocalizedObject& b) {

@@ -47,21 +47,6 @@ int fail(const std::string& msg, int code = 1) {
   return code;
 }
 
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (char c : s) {
-    if (c == ',') {
-      out.push_back(cur);
-      cur.clear();
-    } else {
-      cur += c;
-    }
-  }
-  out.push_back(cur);
-  return out;
-}
-
 }  // namespace
 
 int cmd_fuse_rig(int argc, char** argv) {
@@ -107,77 +92,23 @@ int cmd_fuse_rig(int argc, char** argv) {
   const std::string folder = args.positional()[0];
   io::RigSet set;
   if (!io::open_rig_set(folder, set, err)) return fail(err);
-  const std::vector<std::string> names = split(args.get("sensors"));
-  if (int(names.size()) > board.sensors_max)
-    return fail("--sensors lists " + std::to_string(names.size()) + " sensors; board " + board.name + " has " +
-                    std::to_string(board.sensors_max) + " slots",
-                2);
-  std::vector<PinholeSlot> cams;
-  std::vector<io::LineScan> scans;
-  std::vector<int> scan_slot;
-  cams.reserve(names.size());
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    const io::RigSensor* s = set.rig.find_sensor(names[i]);
-    if (s == nullptr) return fail(folder + "/rig.toml has no sensor '" + names[i] + "' (--sensors)", 2);
-    for (std::size_t k = 0; k < i; ++k)
-      if (names[k] == names[i]) return fail("--sensors names '" + names[i] + "' twice", 2);
-    if (s->kind == io::SensorKind::kPinhole) {
-      cams.emplace_back();
-      if (!io::open_depth_sequence(folder, names[i], cams.back().seq, err)) return fail(err);
-      cams.back().slot = int(i);
-    } else {
-      scans.emplace_back();
-      if (!io::open_line_scan(set.rig, names[i], scans.back(), err)) return fail(err);
-      scan_slot.push_back(int(i));
-    }
-  }
-  // Reference camera: the first listed with colour, else the first pinhole.
-  int ref = -1;
-  for (std::size_t i = 0; i < cams.size() && ref < 0; ++i)
-    if (cams[i].seq.colour_registered) ref = int(i);
-  if (ref < 0 && !cams.empty()) ref = 0;
+  RigSensors rs;
+  bool usage = false;
+  if (!open_rig_sensors(folder, set, split_names(args.get("sensors")), board, rs, err, usage))
+    return fail(err, usage ? 2 : 1);
+  std::vector<PinholeSlot>& cams = rs.cams;
+  const int ref = rs.ref;
 
   CoreSetup core;
   PinholeIntrinsics init_intr;
   init_intr.width = init_intr.height = 8;
   init_intr.fx = init_intr.fy = 8;
   if (!core.init(board, ref >= 0 ? cams[std::size_t(ref)].seq.intr : init_intr, err)) return fail(err);
-  for (PinholeSlot& c : cams)
-    if (!c.bind(core.buffers, board, c.slot, err)) return fail(err);
-  // The filters' intermediate image: the depth buffer of a slot no camera uses (a line scanner's or the last).
-  int spare = board.sensors_max - 1;
-  for (const PinholeSlot& c : cams)
-    if (c.slot == spare) spare = -1;
-  if (spare < 0) {
-    if (int(names.size()) >= board.sensors_max) return fail("no spare frame buffer for the filters; list fewer sensors");
-    spare = int(names.size());
-  }
-  const ImageView<uint16_t> filter_scratch(core.buffers.depth_frames + std::size_t(spare) * core.buffers.pixels_per_sensor,
-                                           board.image_width_max, board.image_height_max);
+  ImageView<uint16_t> filter_scratch;
+  if (!bind_rig_sensors(rs, core, board, filter_scratch, err)) return fail(err);
 
   // Volume placement.
-  if (!settings.origin_given) {
-    if (ref >= 0) {
-      PinholeSlot& r = cams[std::size_t(ref)];
-      if (!io::load_depth(r.seq.frames[0], r.seq.intr, r.load_depth, err)) return fail(err);
-      if (!r.seq.frames[0].has_pose) return fail(r.seq.root + ": the first frame has no pose");
-      if (!centre_on_view(r.seq.intr, r.load_depth, r.seq.frames[0].T_world_cam, settings, err)) return fail(err);
-    } else {
-      std::vector<float> c[3];
-      const io::LineScan& s = scans[0];
-      for (std::size_t p = 0; p < s.profiles.size(); p += 4)
-        for (int i = 0; i < s.profiles.beams; i += 8)
-          if (s.has_pose[p] && s.profiles.profile(p)[i] > 0.0f) {
-            const Vec3f w = s.T_world_sensor[p] * (s.profiles.profile(p)[i] * s.sensor.line.beam_direction(i));
-            for (int a = 0; a < 3; ++a) c[a].push_back(w(a));
-          }
-      if (c[0].empty()) return fail(folder + ": the line scanner has no returns to centre the volume on (give --origin)");
-      for (int a = 0; a < 3; ++a) {
-        std::nth_element(c[a].begin(), c[a].begin() + std::ptrdiff_t(c[a].size() / 2), c[a].end());
-        settings.origin_m(a) = c[a][c[a].size() / 2] - 0.5f * float(settings.dim) * settings.voxel_m;
-      }
-    }
-  }
+  if (!settings.origin_given && !place_rig_volume(rs, settings, err)) return fail(err);
   if (!core.make_volume(settings, err)) return fail(err);
   const Vec3f& o = core.volume.origin_m();
   std::printf("edgefuse fuse: %s, sensors %s, volume %d^3 x %.4f m at %.4f,%.4f,%.4f, trunc %.4f m, trust %s, %s "
@@ -230,53 +161,9 @@ int cmd_fuse_rig(int argc, char** argv) {
   WorkerPool pool;
   pool.start(settings.threads);
   const auto t_start = std::chrono::steady_clock::now();
-  for (std::size_t c = 0; c < cams.size(); ++c) {
-    PinholeSlot& cam = cams[c];
-    const std::size_t n = std::min<std::size_t>(cam.seq.frames.size(), std::size_t(frames_max));
-    const bool colour = int(c) == ref && cam.seq.colour_registered && core.volume.has_colour();
-    std::size_t pushed = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      Pose T;
-      if (mounted[c]) {
-        const int j = frame_near(cams[std::size_t(ref)].seq, cam.seq.frames[i].stamp_s);
-        if (j < 0 || !cams[std::size_t(ref)].seq.frames[std::size_t(j)].has_pose) continue;
-        T = cams[std::size_t(ref)].seq.frames[std::size_t(j)].T_world_cam * mount[c];
-      } else {
-        if (!cam.seq.frames[i].has_pose) return fail(cam.seq.frames[i].depth_path + " has no ground-truth pose");
-        T = cam.seq.frames[i].T_world_cam;
-      }
-      DepthFrame f;
-      if (!cam.stage(i, filter, colour, sigma_ref, filter_scratch, f, err)) return fail(err);
-      const Status s = integrate_parallel<real_t>(pool, core.volume, cam.seq.intr, cam.ray_norms, f, T, cam.scratch);
-      if (s != Status::kOk) return fail(cam.seq.frames[i].depth_path + ": " + to_string(s));
-      ++pushed;
-    }
-    std::printf("%s: %zu frames pushed (%s%s%s)\n", cam.seq.sensor_name.c_str(), pushed,
-                cam.tof ? "ToF" : "structured light", filter ? ", pre-filtered" : "", colour ? ", colour" : "");
-  }
-  for (std::size_t k = 0; k < scans.size(); ++k) {
-    const io::LineScan& scan = scans[k];
-    LineScannerModel model;
-    model.beams = scan.sensor.line.beams;
-    model.fov_deg = scan.sensor.line.fov_deg;
-    model.min_range_m = scan.sensor.line.min_range_m;
-    model.max_range_m = scan.sensor.line.max_range_m;
-    LineScannerTables<real_t> tables;
-    tables.tan_theta = reinterpret_cast<real_t*>(core.buffers.ray_norms) +
-                       std::size_t(scan_slot[k]) * core.buffers.pixels_per_sensor;
-    tables.capacity = int(core.buffers.pixels_per_sensor);
-    if (tables.build(model) != Status::kOk) return fail(scan.sensor.name + ": bad line scanner parameters");
-    const float trust = use_trust ? NoiseModel::constant(20e-6f).trust(sigma_ref, 0.0f) : 1.0f;
-    std::size_t pushed = 0;
-    for (std::size_t p = 0; p < scan.profiles.size(); ++p) {
-      if (!scan.has_pose[p]) continue;
-      const Status s = integrate_profile<real_t>(core.volume, model, tables, scan.profiles.profile(p),
-                                                 scan.T_world_sensor[p], 0.0f, trust);
-      if (s != Status::kOk) return fail(scan.sensor.name + ": profile " + std::to_string(p) + ": " + to_string(s));
-      ++pushed;
-    }
-    std::printf("%s: %zu profiles pushed (line scanner, %d beams)\n", scan.sensor.name.c_str(), pushed, model.beams);
-  }
+  if (!push_rig_frames(rs, core, pool, mount, mounted, std::size_t(frames_max), filter, true, sigma_ref,
+                       filter_scratch, err, true))
+    return fail(err);
   if (paint && ref >= 0 && cams[std::size_t(ref)].seq.colour_registered && core.volume.has_colour()) {
     PinholeSlot& cam = cams[std::size_t(ref)];
     const std::size_t n = std::min<std::size_t>(cam.seq.frames.size(), std::size_t(frames_max));
@@ -299,18 +186,9 @@ int cmd_fuse_rig(int argc, char** argv) {
   if (min_weight > 0) {
     // Confidence filter: keep a point only where some of the 8 voxels around it holds at least
     // min_weight (weight units: 1/8 sample x trust), i.e. the surface there is supported by that much data.
-    const TsdfVolume& vol = core.volume;
     std::size_t kept = 0;
     for (std::size_t i = 0; i < cloud.points.size(); ++i) {
-      const Vec3f g = (cloud.points[i] - vol.origin_m()) / vol.voxel_m() - Vec3f::Constant(0.5f);
-      int lo = 0;  // the best-supported of the 8 voxels
-      for (int c = 0; c < 8; ++c) {
-        const int x = int(std::floor(g.x())) + (c & 1), y = int(std::floor(g.y())) + ((c >> 1) & 1),
-                  z = int(std::floor(g.z())) + ((c >> 2) & 1);
-        if (x < 0 || y < 0 || z < 0 || x >= vol.dim() || y >= vol.dim() || z >= vol.dim()) continue;
-        lo = std::max(lo, int(vol.weight()[vol.index(x, y, z)]));
-      }
-      if (lo < min_weight) continue;
+      if (support_weight(core.volume, cloud.points[i]) < min_weight) continue;
       cloud.points[kept] = cloud.points[i];
       cloud.normals[kept] = cloud.normals[i];
       if (!cloud.colours.empty()) cloud.colours[kept] = cloud.colours[i];

@@ -23,6 +23,7 @@
 #include "edgefuse/tsdf/extract.hpp"
 #include "localize_io.hpp"
 #include "parallel_tsdf.hpp"
+#include "rig_fusion.hpp"
 
 namespace edgefuse::cli {
 namespace {
@@ -30,19 +31,23 @@ namespace {
 const char* kUsage =
     "usage: edgefuse localize INPUT --model FILE.ply [--model FILE ...] [--max N] [--out poses.txt]\n"
     "       edgefuse localize INPUT --segments [--max N] [--out labels.pcd]\n"
-    "  options: [--sensor NAME] [--frames N] [--voxel M] [--volume N] [--threads N] [--no-walls] [--min-score S]\n"
+    "  options: [--sensor NAME | --sensors A,B,...] [--frames N] [--voxel M] [--volume N] [--threads N] [--no-walls] [--min-score S]\n"
+    "           [--icp-iterations N] (per hypothesis, default 12)\n"
     "           [--scene-out FILE.ply] (the scene after bin removal, for inspection)\n"
     "           [--seg-smooth DEG] [--seg-concave TOL] [--seg-radius M] [--seg-colour TOL]\n"
     "           (region growing, see localizer.hpp)\n"
     "  INPUT: a rig set or depth-sequence folder (fused at its ground-truth poses), a single-frame folder\n"
     "  (depth.png + camera.toml, fused as one frame), or a PLY/PCD cloud (organised clouds get normals from\n"
     "  their image neighbours, unorganised ones without normals by PCA; no free-space check on clouds).\n"
+    "  --sensors A,B,..: fuse these sensors of a rig set (as `edgefuse fuse --sensors`: pre-filters, noise-model\n"
+    "  trust, line scanners) into the one space that is localised in; the viewpoint is the first colour camera's;\n"
+    "  with [--no-filter] [--no-trust] [--min-weight W] (as for `edgefuse fuse`).\n"
     "  Poses: one line per object `id tx ty tz qx qy qz qw score model` (T_world_object; id = picking rank).\n"
     "  Segments: a PCD with a `label` field per input point (organised inputs keep width x height; 0 = none).\n";
 
-double cpu_ms() {
+double cpu_ms(clockid_t clock = CLOCK_THREAD_CPUTIME_ID) {
   timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  clock_gettime(clock, &ts);
   return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
 }
 
@@ -76,8 +81,8 @@ int cmd_localize(int argc, char** argv) {
   }
   Args args;
   std::string err;
-  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
-                  {"segments", "no-walls"}, err) ||
+  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
+                  {"segments", "no-walls", "no-filter", "no-trust"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
     return 2;
@@ -107,7 +112,8 @@ int cmd_localize(int argc, char** argv) {
       !args.get_float("seg-smooth", 0.0f, 90.0f, params.segment_smooth_deg, err) ||
       !args.get_float("seg-concave", -1.0f, 1.0f, params.segment_concave_tol, err) ||
       !args.get_float("seg-radius", 0.001f, 0.1f, params.segment_radius_m, err) ||
-      !args.get_int("seg-colour", 0, 765, params.segment_colour_tol, err)) {
+      !args.get_int("seg-colour", 0, 765, params.segment_colour_tol, err) ||
+      !args.get_int("icp-iterations", 1, 100, params.icp_iterations, err)) {
     std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
     return 2;
   }
@@ -141,16 +147,89 @@ int cmd_localize(int argc, char** argv) {
                 index, mi.name, mi.diameter_m * 1e3, mi.dense_count, mi.ppf_count, mi.ppf_step_m * 1e3, mi.entry_count);
   }
 
+  // Start-up: hypothesis refinement / verification run over --threads workers (same results for any count).
+  WorkerPool loc_pool;
+  loc_pool.start(fs.threads);
+  loc.set_parallel(pool_parallel_for(loc_pool));
+
   // --- scene
   const std::string input = args.positional()[0];
   SceneContext ctx;
   io::PointCloud in_cloud;  // cloud input (kept for organised label output)
-  double t_start_cpu = 0;
+  double t_start_cpu = 0, t_start_proc = 0;  // main thread; all threads
   auto t_start_wall = std::chrono::steady_clock::now();
   CoreSetup core;
   bool fused = false;
   std::size_t surface_count = 0;
-  if (is_dir(input)) {
+  if (args.has("sensors") && args.has("sensor")) {
+    std::fprintf(stderr, "edgefuse localize: give --sensor or --sensors, not both\n%s", kUsage);
+    return 2;
+  }
+  if (args.has("sensors")) {  // multi-sensor fusion of a rig set (rig_fusion, as `edgefuse fuse --sensors`)
+    io::RigSet set;
+    if (!is_dir(input) || !io::open_rig_set(input, set, err)) {
+      std::fprintf(stderr, "edgefuse localize: --sensors needs a rig set: %s\n", err.empty() ? input.c_str() : err.c_str());
+      return 1;
+    }
+    RigSensors rs;
+    bool usage = false;
+    if (!open_rig_sensors(input, set, split_names(args.get("sensors")), board, rs, err, usage)) {
+      std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
+      return usage ? 2 : 1;
+    }
+    if (rs.ref < 0) {
+      std::fprintf(stderr, "edgefuse localize: --sensors needs at least one pinhole camera (the viewpoint)\n");
+      return 2;
+    }
+    int min_weight = 0;
+    if (!args.get_int("min-weight", 0, 255, min_weight, err)) {
+      std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
+      return 2;
+    }
+    ImageView<uint16_t> filter_scratch;
+    if (!core.init(board, rs.cams[std::size_t(rs.ref)].seq.intr, err) ||
+        !bind_rig_sensors(rs, core, board, filter_scratch, err) || !place_rig_volume(rs, fs, err) ||
+        !core.make_volume(fs, err)) {
+      std::fprintf(stderr, "edgefuse localize: %s: %s\n", input.c_str(), err.c_str());
+      return 1;
+    }
+    const std::vector<Pose> mount(rs.cams.size());
+    const std::vector<char> mounted(rs.cams.size(), 0);
+    WorkerPool pool;
+    pool.start(fs.threads);
+    if (!push_rig_frames(rs, core, pool, mount, mounted, std::size_t(frames_max), !args.has("no-filter"), false,
+                         args.has("no-trust") ? 0.0f : 0.5f * fs.voxel_m, filter_scratch, err, true)) {
+      std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
+      return 1;
+    }
+    pool.stop();
+    // The viewpoint (visibility of model surface) is the reference camera's mean position.
+    const io::DepthSequence& rseq = rs.cams[std::size_t(rs.ref)].seq;
+    Vec3f view_sum = Vec3f::Zero();
+    std::size_t nv = 0;
+    for (std::size_t i = 0; i < std::min<std::size_t>(rseq.frames.size(), std::size_t(frames_max)); ++i)
+      if (rseq.frames[i].has_pose) {
+        view_sum += rseq.frames[i].T_world_cam.t;
+        ++nv;
+      }
+    ctx.viewpoint_m = view_sum / float(std::max<std::size_t>(nv, 1));
+    t_start_cpu = cpu_ms();
+    t_start_proc = cpu_ms(CLOCK_PROCESS_CPUTIME_ID);
+    t_start_wall = std::chrono::steady_clock::now();
+    const std::size_t cap = std::min<std::size_t>(board.points_max, board.scene_points_max);
+    const Status xs = extract_points(core.volume, buffers.points, cap, surface_count);
+    if (min_weight > 0) {  // confidence filter (as `edgefuse fuse --min-weight`): drop weakly supported surface
+      std::size_t kept = 0;
+      for (std::size_t i = 0; i < surface_count; ++i)
+        if (support_weight(core.volume, buffers.points[i].position) >= min_weight) buffers.points[kept++] = buffers.points[i];
+      std::printf("confidence filter (--min-weight %d): %zu of %zu surface points kept\n", min_weight, kept, surface_count);
+      surface_count = kept;
+    }
+    const Status ss = loc.set_scene(buffers.points, surface_count, ctx, &core.volume, 3.5f * fs.voxel_m);
+    std::printf("fused %s of %s; surface %zu points%s\n", args.get("sensors").c_str(), input.c_str(), surface_count,
+                xs == Status::kOutputTruncated || ss == Status::kOutputTruncated ? " (truncated at capacity)" : "");
+    fused = true;
+  } else if (is_dir(input)) {
     io::DepthSequence seq;
     if (!io::open_depth_sequence(input, args.get("sensor"), seq, err)) {
       std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
@@ -206,6 +285,7 @@ int cmd_localize(int argc, char** argv) {
     ctx.viewpoint_m = view_sum / float(frame_count);
     // The clock of the pose list starts after the last integrated frame.
     t_start_cpu = cpu_ms();
+    t_start_proc = cpu_ms(CLOCK_PROCESS_CPUTIME_ID);
     t_start_wall = std::chrono::steady_clock::now();
     std::size_t cap = std::min<std::size_t>(board.points_max, board.scene_points_max);
     const Status xs = extract_points(core.volume, buffers.points, cap, surface_count);
@@ -229,6 +309,7 @@ int cmd_localize(int argc, char** argv) {
     }
     ctx.viewpoint_m = Vec3f::Zero();  // a cloud is in its camera's frame
     t_start_cpu = cpu_ms();
+    t_start_proc = cpu_ms(CLOCK_PROCESS_CPUTIME_ID);
     t_start_wall = std::chrono::steady_clock::now();
     const Status ss = loc.set_scene_points(pts.data(), pts.size(), ctx, nullptr, 0.005f);
     std::printf("cloud %s: %zu points (%dx%d), %zu with normals%s\n", input.c_str(), in_cloud.size(), in_cloud.width,
@@ -262,6 +343,7 @@ int cmd_localize(int argc, char** argv) {
   std::size_t count = 0;
   const Status ls = segments ? loc.segment(params, max_results, count) : loc.localize(params, max_results, count);
   const double ms_cpu = cpu_ms() - t_start_cpu;
+  const double ms_proc = cpu_ms(CLOCK_PROCESS_CPUTIME_ID) - t_start_proc;
   const double ms_wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_start_wall).count();
   if (ls != Status::kOk) {
     std::fprintf(stderr, "edgefuse localize: %s\n", to_string(ls));
@@ -278,8 +360,8 @@ int cmd_localize(int argc, char** argv) {
                 r[i].grasp_m.x(), r[i].grasp_m.y(), r[i].grasp_m.z(), r[i].approach.x(), r[i].approach.y(),
                 r[i].approach.z(), r[i].size_m.x() * 1e3, r[i].size_m.y() * 1e3, r[i].size_m.z() * 1e3);
   }
-  std::printf("%s=%zu candidates=%zu localize_cpu_ms=%.1f localize_wall_ms=%.1f\n", segments ? "segments" : "objects",
-              count, loc.last_candidates(), ms_cpu, ms_wall);
+  std::printf("%s=%zu candidates=%zu localize_cpu_ms=%.1f localize_proc_cpu_ms=%.1f localize_wall_ms=%.1f\n",
+              segments ? "segments" : "objects", count, loc.last_candidates(), ms_cpu, ms_proc, ms_wall);
   if (segments) {
     const std::string out = args.get("out", "labels.pcd");
     if (!write_segment_labels(out, loc, in_cloud, surface_count, buffers.points, err)) {

@@ -7,6 +7,7 @@
 
 #include "edgefuse/io/cloud.hpp"
 #include "edgefuse/localize/localizer.hpp"
+#include "worker_pool.hpp"
 
 namespace edgefuse::cli {
 
@@ -27,5 +28,10 @@ bool write_pose_list(const std::string& path, const Localizer& loc, std::size_t 
 //! Labels per input point (organised cloud: same width x height) or per fused surface point.
 bool write_segment_labels(const std::string& path, const Localizer& loc, const io::PointCloud& input,
                           std::size_t surface_count, const SurfacePoint* surface, std::string& err);
+
+//! The localiser's parallel-for on a started worker pool (jobs handed out from an atomic counter;
+//! allocates nothing per call).
+//! \param pool the workers (must outlive the localiser's use of the result)
+ParallelFor pool_parallel_for(WorkerPool& pool);
 
 }  // namespace edgefuse::cli

@@ -7,7 +7,9 @@
 
 #include "edgefuse/tracking/tracker.hpp"
 #include "edgefuse/tsdf/integrate.hpp"
+#include "edgefuse/tsdf/integrate_profile.hpp"
 #include "edgefuse/tsdf/raycast.hpp"
+#include "parallel_tsdf.hpp"
 
 namespace edgefuse::cli {
 
@@ -257,6 +259,191 @@ bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, Fr
     run.spread = (var / (k - 1.0f)).cwiseSqrt();
   }
   return true;
+}
+
+// --- multi-sensor fusion of a rig set
+
+std::vector<std::string> split_names(const std::string& s) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : s) {
+    if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+bool open_rig_sensors(const std::string& folder, const io::RigSet& set, const std::vector<std::string>& names,
+                      const BoardCapacities& board, RigSensors& rs, std::string& err, bool& usage) {
+  usage = true;
+  if (int(names.size()) > board.sensors_max) {
+    err = "--sensors lists " + std::to_string(names.size()) + " sensors; board " + board.name + " has " +
+          std::to_string(board.sensors_max) + " slots";
+    return false;
+  }
+  rs = RigSensors();
+  rs.cams.reserve(names.size());
+  rs.listed = int(names.size());
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const io::RigSensor* s = set.rig.find_sensor(names[i]);
+    if (s == nullptr) {
+      err = folder + "/rig.toml has no sensor '" + names[i] + "' (--sensors)";
+      return false;
+    }
+    for (std::size_t k = 0; k < i; ++k)
+      if (names[k] == names[i]) {
+        err = "--sensors names '" + names[i] + "' twice";
+        return false;
+      }
+    usage = false;
+    if (s->kind == io::SensorKind::kPinhole) {
+      rs.cams.emplace_back();
+      if (!io::open_depth_sequence(folder, names[i], rs.cams.back().seq, err)) return false;
+      rs.cams.back().slot = int(i);
+    } else {
+      rs.scans.emplace_back();
+      if (!io::open_line_scan(set.rig, names[i], rs.scans.back(), err)) return false;
+      rs.scan_slot.push_back(int(i));
+    }
+    usage = true;
+  }
+  usage = false;
+  for (std::size_t i = 0; i < rs.cams.size() && rs.ref < 0; ++i)
+    if (rs.cams[i].seq.colour_registered) rs.ref = int(i);
+  if (rs.ref < 0 && !rs.cams.empty()) rs.ref = 0;
+  return true;
+}
+
+bool bind_rig_sensors(RigSensors& rs, CoreSetup& core, const BoardCapacities& board,
+                      ImageView<uint16_t>& filter_scratch, std::string& err) {
+  for (PinholeSlot& c : rs.cams)
+    if (!c.bind(core.buffers, board, c.slot, err)) return false;
+  int spare = board.sensors_max - 1;
+  for (const PinholeSlot& c : rs.cams)
+    if (c.slot == spare) spare = -1;
+  if (spare < 0) {
+    if (rs.listed >= board.sensors_max) {
+      err = "no spare frame buffer for the filters; list fewer sensors";
+      return false;
+    }
+    spare = rs.listed;
+  }
+  filter_scratch = ImageView<uint16_t>(core.buffers.depth_frames + std::size_t(spare) * core.buffers.pixels_per_sensor,
+                                       board.image_width_max, board.image_height_max);
+  return true;
+}
+
+bool place_rig_volume(RigSensors& rs, FuseSettings& settings, std::string& err) {
+  if (rs.ref >= 0) {
+    PinholeSlot& r = rs.cams[std::size_t(rs.ref)];
+    if (!io::load_depth(r.seq.frames[0], r.seq.intr, r.load_depth, err)) return false;
+    if (!r.seq.frames[0].has_pose) {
+      err = r.seq.root + ": the first frame has no pose";
+      return false;
+    }
+    return centre_on_view(r.seq.intr, r.load_depth, r.seq.frames[0].T_world_cam, settings, err);
+  }
+  std::vector<float> c[3];
+  const io::LineScan& s = rs.scans[0];
+  for (std::size_t p = 0; p < s.profiles.size(); p += 4)
+    for (int i = 0; i < s.profiles.beams; i += 8)
+      if (s.has_pose[p] && s.profiles.profile(p)[i] > 0.0f) {
+        const Vec3f w = s.T_world_sensor[p] * (s.profiles.profile(p)[i] * s.sensor.line.beam_direction(i));
+        for (int a = 0; a < 3; ++a) c[a].push_back(w(a));
+      }
+  if (c[0].empty()) {
+    err = s.sensor.name + ": the line scanner has no returns to centre the volume on (give --origin)";
+    return false;
+  }
+  for (int a = 0; a < 3; ++a) {
+    std::nth_element(c[a].begin(), c[a].begin() + std::ptrdiff_t(c[a].size() / 2), c[a].end());
+    settings.origin_m(a) = c[a][c[a].size() / 2] - 0.5f * float(settings.dim) * settings.voxel_m;
+  }
+  return true;
+}
+
+bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const std::vector<Pose>& mount,
+                     const std::vector<char>& mounted, std::size_t frames_max, bool filter, bool colour_ref,
+                     float sigma_ref_m, ImageView<uint16_t> filter_scratch, std::string& err, bool verbose) {
+  for (std::size_t c = 0; c < rs.cams.size(); ++c) {
+    PinholeSlot& cam = rs.cams[c];
+    const std::size_t n = std::min<std::size_t>(cam.seq.frames.size(), frames_max);
+    const bool colour = colour_ref && int(c) == rs.ref && cam.seq.colour_registered && core.volume.has_colour();
+    std::size_t pushed = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      Pose T;
+      if (mounted[c]) {
+        const io::DepthSequence& rseq = rs.cams[std::size_t(rs.ref)].seq;
+        const int j = frame_near(rseq, cam.seq.frames[i].stamp_s);
+        if (j < 0 || !rseq.frames[std::size_t(j)].has_pose) continue;
+        T = rseq.frames[std::size_t(j)].T_world_cam * mount[c];
+      } else {
+        if (!cam.seq.frames[i].has_pose) {
+          err = cam.seq.frames[i].depth_path + " has no ground-truth pose";
+          return false;
+        }
+        T = cam.seq.frames[i].T_world_cam;
+      }
+      DepthFrame f;
+      if (!cam.stage(i, filter, colour, sigma_ref_m, filter_scratch, f, err)) return false;
+      const Status s = integrate_parallel<real_t>(pool, core.volume, cam.seq.intr, cam.ray_norms, f, T, cam.scratch);
+      if (s != Status::kOk) {
+        err = cam.seq.frames[i].depth_path + ": " + to_string(s);
+        return false;
+      }
+      ++pushed;
+    }
+    if (verbose)
+      std::printf("%s: %zu frames pushed (%s%s%s)\n", cam.seq.sensor_name.c_str(), pushed,
+                  cam.tof ? "ToF" : "structured light", filter ? ", pre-filtered" : "", colour ? ", colour" : "");
+  }
+  for (std::size_t k = 0; k < rs.scans.size(); ++k) {
+    const io::LineScan& scan = rs.scans[k];
+    LineScannerModel model;
+    model.beams = scan.sensor.line.beams;
+    model.fov_deg = scan.sensor.line.fov_deg;
+    model.min_range_m = scan.sensor.line.min_range_m;
+    model.max_range_m = scan.sensor.line.max_range_m;
+    LineScannerTables<real_t> tables;
+    tables.tan_theta = reinterpret_cast<real_t*>(core.buffers.ray_norms) +
+                       std::size_t(rs.scan_slot[k]) * core.buffers.pixels_per_sensor;
+    tables.capacity = int(core.buffers.pixels_per_sensor);
+    if (tables.build(model) != Status::kOk) {
+      err = scan.sensor.name + ": bad line scanner parameters";
+      return false;
+    }
+    const float trust = sigma_ref_m > 0 ? NoiseModel::constant(20e-6f).trust(sigma_ref_m, 0.0f) : 1.0f;
+    std::size_t pushed = 0;
+    for (std::size_t p = 0; p < scan.profiles.size(); ++p) {
+      if (!scan.has_pose[p]) continue;
+      const Status s = integrate_profile<real_t>(core.volume, model, tables, scan.profiles.profile(p),
+                                                 scan.T_world_sensor[p], 0.0f, trust);
+      if (s != Status::kOk) {
+        err = scan.sensor.name + ": profile " + std::to_string(p) + ": " + to_string(s);
+        return false;
+      }
+      ++pushed;
+    }
+    if (verbose) std::printf("%s: %zu profiles pushed (line scanner, %d beams)\n", scan.sensor.name.c_str(), pushed, model.beams);
+  }
+  return true;
+}
+
+int support_weight(const TsdfVolume& vol, const Vec3f& p) {
+  const Vec3f g = (p - vol.origin_m()) / vol.voxel_m() - Vec3f::Constant(0.5f);
+  int best = 0;
+  for (int c = 0; c < 8; ++c) {
+    const int x = int(std::floor(g.x())) + (c & 1), y = int(std::floor(g.y())) + ((c >> 1) & 1),
+              z = int(std::floor(g.z())) + ((c >> 2) & 1);
+    if (x < 0 || y < 0 || z < 0 || x >= vol.dim() || y >= vol.dim() || z >= vol.dim()) continue;
+    best = std::max(best, int(vol.weight()[vol.index(x, y, z)]));
+  }
+  return best;
 }
 
 }  // namespace edgefuse::cli

@@ -13,6 +13,7 @@
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/sensor/noise_model.hpp"
 #include "edgefuse/tracking/pyramid.hpp"
+#include "worker_pool.hpp"
 
 namespace edgefuse::cli {
 
@@ -78,5 +79,53 @@ bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, Fr
                           const IcpWorkspace<real_t>& ws, ImageView<uint16_t> filter_scratch, int frames,
                           const Pose& guess, const PairCalibrationParams& params, PairCalibrationRun& run,
                           std::string& err, bool verbose, const TrackingBuffers* track_a = nullptr);
+
+// --- multi-sensor fusion of a rig set (`edgefuse fuse --sensors`, `edgefuse localize --sensors`)
+
+//! The listed sensors of a rig set, opened for fusion (host I/O side).
+struct RigSensors {
+  std::vector<PinholeSlot> cams;    //!< pinhole sensors in listed order
+  std::vector<io::LineScan> scans;  //!< line scanners in listed order
+  std::vector<int> scan_slot;       //!< board slot of each scan
+  int ref = -1;                     //!< reference camera: the first listed with colour, else the first pinhole
+  int listed = 0;                   //!< number of listed sensors
+};
+
+//! Splits "a,b,c" at commas.
+std::vector<std::string> split_names(const std::string& s);
+
+//! Opens the listed sensors of the rig set in `folder`.
+//! \param folder rig set folder  \param set its rig.toml  \param names sensor names (distinct, known)
+//! \param board capacities (slot count)  \param rs opened sensors  \param err error text
+//! \param usage set when the error is in the option (exit code 2) rather than in the data
+bool open_rig_sensors(const std::string& folder, const io::RigSet& set, const std::vector<std::string>& names,
+                      const BoardCapacities& board, RigSensors& rs, std::string& err, bool& usage);
+
+//! Binds every camera to its slot and picks the filters' intermediate image: the depth buffer of a
+//! slot no camera uses.
+//! \param rs opened sensors  \param core set-up core buffers  \param board capacities
+//! \param filter_scratch the spare image  \param err error text
+bool bind_rig_sensors(RigSensors& rs, CoreSetup& core, const BoardCapacities& board,
+                      ImageView<uint16_t>& filter_scratch, std::string& err);
+
+//! Centres the volume on the reference camera's first view (or on the line scanner's returns).
+//! \param rs opened sensors  \param settings volume settings (origin written)  \param err error text
+bool place_rig_volume(RigSensors& rs, FuseSettings& settings, std::string& err);
+
+//! Pushes every camera's frames (its ground-truth poses, or the reference camera's pose at the same
+//! instant times `mount[c]` where `mounted[c]`), then every line scanner's profiles (own poses).
+//! \param rs bound sensors  \param core core with the volume made  \param pool integration workers
+//! \param mount T_ref_cam per camera  \param mounted whether to use it
+//! \param frames_max frames per camera  \param filter pre-filter the depth  \param colour_ref integrate the
+//! reference camera's colour  \param sigma_ref_m trust reference noise (0: equal weights)
+//! \param filter_scratch spare image  \param err error text  \param verbose one line per sensor
+bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const std::vector<Pose>& mount,
+                     const std::vector<char>& mounted, std::size_t frames_max, bool filter, bool colour_ref,
+                     float sigma_ref_m, ImageView<uint16_t> filter_scratch, std::string& err, bool verbose);
+
+//! Confidence of a fused surface point: the largest weight of the 8 voxels around it (weight units:
+//! 1/8 sample x trust), i.e. how much data supports the surface there.
+//! \param volume the space  \param p world point (metres)
+int support_weight(const TsdfVolume& volume, const Vec3f& p);
 
 }  // namespace edgefuse::cli

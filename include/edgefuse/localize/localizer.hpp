@@ -55,7 +55,7 @@ struct LocalizeParams {
   int ref_stride = 2;            //!< every n-th subsampled scene point is a reference point
   float cluster_trans_rel = 0.1f;  //!< pose clustering: translation within this share of the diameter
   float cluster_rot_deg = 15.0f;   //!< ... and rotation within this angle
-  int icp_iterations = 20;
+  int icp_iterations = 12;        //!< per hypothesis (12: same bin_rig_a median error as 20, 8 is worse)
   float support_tol_m = 0.003f;    //!< a model point is supported by a scene point this close
   float min_score = 0.3f;          //!< least supported share of the visible model surface
   int min_support = 40;            //!< least number of supported model samples
@@ -77,8 +77,22 @@ struct LocalizeParams {
   int segment_colour_tol = 0;        //!< > 0: neighbours whose colours differ by more (sum of |dR|+|dG|+|dB|) do not join
 };
 
+//! A parallel-for supplied by the caller (src/ has no threads): runs body(context, i) once for every
+//! i in [0, count), on any threads, and returns when all have run. The localiser's bodies write
+//! disjoint outputs and read shared state only, so results do not depend on how they are spread.
+struct ParallelFor {
+  //! \param runner `runner` below  \param count jobs  \param body the job  \param context its argument
+  void (*run)(void* runner, std::size_t count, void (*body)(void* context, std::size_t i), void* context) = nullptr;
+  void* runner = nullptr;  //!< e.g. the host's worker pool
+};
+
 class Localizer {
  public:
+  //! Spreads the refinement and verification of pose hypotheses over the caller's threads
+  //! (default: serial). Identical results for any thread count.
+  //! \param pf the caller's parallel-for (run == nullptr: serial)
+  void set_parallel(const ParallelFor& pf) { parallel_ = pf; }
+
   //! Binds the static buffers; forgets all models.
   //! \param buffers regions carved from the memory map
   Status init(const LocalizeBuffers& buffers);
@@ -172,6 +186,9 @@ class Localizer {
   float grid_cell_m_ = 0.005f;
   float grid_inv_ = 200.0f;
   std::size_t last_candidates_ = 0;
+  ParallelFor parallel_;
+  const LocalizeParams* job_params_ = nullptr;  //!< of the running refine_job batch
+  static void refine_job(void* self, std::size_t k);
 };
 
 //! Normals of an organised cloud from its image neighbours (central differences, oriented towards
