@@ -53,6 +53,7 @@ struct VolumeStorage {
   uint8_t colour_weight[kVoxels];
   uint8_t flags[kBricks];
   uint32_t list[kBricks];
+  uint64_t block_mask[kBricks];
   edgefuse::VoxelStorage view(bool with_colour = true) {
     edgefuse::VoxelStorage s;
     s.tsdf = tsdf;
@@ -61,6 +62,7 @@ struct VolumeStorage {
     s.colour_weight = with_colour ? colour_weight : nullptr;
     s.brick_flags = flags;
     s.brick_list = list;
+    s.block_mask = block_mask;
     s.capacity_dim = Dim;
     return s;
   }

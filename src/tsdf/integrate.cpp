@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "kernel_math.hpp"
+#include "block_mask.hpp"
 #include "voxel_update.hpp"
 
 namespace edgefuse {
@@ -317,6 +318,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
     if (cls == BrickClass::kFreeSpace) {
       free_space_update(tsdf, weight, base, 0, kBrickSide, max_weight, full_weight, surface);
       flags[brick] |= surface ? (kBrickObserved | kBrickSurface) : kBrickObserved;
+      if (flags[brick] & kBrickSurface) block_mask::refresh(volume, brick);
       continue;
     }
     // A mixed brick: classify its eight 4^3 blocks, so that only those the surface band passes
@@ -421,6 +423,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
     }
     if (observed) flags[brick] |= kBrickObserved;
     if (surface) flags[brick] |= kBrickSurface;
+    if (observed && (flags[brick] & kBrickSurface)) block_mask::refresh(volume, brick);
   }
 }
 

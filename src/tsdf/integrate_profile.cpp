@@ -5,6 +5,7 @@
 #include "edgefuse/tsdf/integrate.hpp"
 #include "edgefuse/tsdf/raycast.hpp"
 #include "kernel_math.hpp"
+#include "block_mask.hpp"
 #include "voxel_update.hpp"
 
 namespace edgefuse {
@@ -147,6 +148,7 @@ Status integrate_profile(TsdfVolume& volume, const LineScannerModel& model, cons
             }
         if (!observed) continue;
         flags[brick] |= surface ? (kBrickObserved | kBrickSurface) : kBrickObserved;
+        if (flags[brick] & kBrickSurface) block_mask::refresh(volume, brick);
         list[listed++] = uint32_t(brick);
       }
   finish_integration(volume, listed);

@@ -149,19 +149,50 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
   const Pose T_cam_world = T_world_cam.inverse();
   const float vs = volume.voxel_m();
   const uint8_t* flags = volume.brick_flags();
+  const uint64_t* masks = volume.block_mask();
   const std::size_t bricks = volume.brick_count();
-  // A zero crossing can lie in a cell reaching one voxel past the brick's last voxel centre.
-  const float lo_off = 0.5f * vs, hi_off = (kBrickSide + 0.5f) * vs;
   for (std::size_t b = 0; b < bricks; ++b) {
     if (!(flags[b] & kBrickSurface)) continue;
+    // The voxel-index box (inclusive) whose cells can hold this brick's crossings: without block
+    // masks the whole brick; with them the blocks holding a distance below +1. A crossing cell
+    // has such a corner, so it lies within one voxel of those blocks.
+    int lo[3] = {0, 0, 0}, hi[3] = {kBrickSide - 1, kBrickSide - 1, kBrickSide - 1};
+    if (masks != nullptr) {
+      const uint64_t m = masks[b];
+      if (m == 0) continue;  // every observed voxel back at +1: no crossing here
+      // Bounding box of the set blocks: OR the mask's planes / rows / columns.
+      uint32_t zs = 0, ys = 0, xs = 0;
+      for (int bz = 0; bz < 4; ++bz) {
+        const uint32_t plane = uint32_t(m >> (bz * 16)) & 0xffffu;
+        if (plane == 0) continue;
+        zs |= 1u << bz;
+        for (int by = 0; by < 4; ++by) {
+          const uint32_t row = (plane >> (by * 4)) & 0xfu;
+          if (row == 0) continue;
+          ys |= 1u << by;
+          xs |= row;
+        }
+      }
+      const uint32_t sets[3] = {xs, ys, zs};
+      for (int a = 0; a < 3; ++a) {
+        int first = 0, last = 3;
+        while (!(sets[a] & (1u << first))) ++first;
+        while (!(sets[a] & (1u << last))) --last;
+        lo[a] = 2 * first - 1;  // the cell based one voxel before the block reaches into it
+        hi[a] = 2 * last + 1;
+      }
+    }
     int bx, by, bz;
     volume.brick_coords(b, bx, by, bz);
     const Vec3f corner = volume.origin_m() + Vec3f(float(bx), float(by), float(bz)) * (kBrickSide * vs);
+    // A zero crossing can lie in a cell reaching one voxel past the box's last voxel centre.
+    const Vec3f box_lo = corner + Vec3f(lo[0] + 0.5f, lo[1] + 0.5f, lo[2] + 0.5f) * vs;
+    const Vec3f box_hi = corner + Vec3f(hi[0] + 1.5f, hi[1] + 1.5f, hi[2] + 1.5f) * vs;
     float z_lo = 1e30f, z_hi = -1e30f, u_lo = 1e30f, u_hi = -1e30f, v_lo = 1e30f, v_hi = -1e30f;
     bool behind = false;
     for (int k = 0; k < 8; ++k) {
-      const Vec3f p = T_cam_world * (corner + Vec3f((k & 1) ? hi_off : lo_off, (k & 2) ? hi_off : lo_off,
-                                                    (k & 4) ? hi_off : lo_off));
+      const Vec3f p = T_cam_world * Vec3f((k & 1) ? box_hi.x() : box_lo.x(), (k & 2) ? box_hi.y() : box_lo.y(),
+                                          (k & 4) ? box_hi.z() : box_lo.z());
       z_lo = std::min(z_lo, p.z());
       z_hi = std::max(z_hi, p.z());
       if (p.z() <= 1e-3f) {

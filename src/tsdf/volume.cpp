@@ -34,6 +34,7 @@ void TsdfVolume::clear() {
     std::memset(s_.colour_weight, 0, n);
   }
   std::memset(s_.brick_flags, 0, brick_count());
+  if (s_.block_mask != nullptr) std::memset(s_.block_mask, 0, brick_count() * sizeof(uint64_t));
 }
 
 std::size_t TsdfVolume::observed_voxels() const {

@@ -84,6 +84,7 @@ int calibrate_maps(const Args& args, const BoardCapacities& board, FuseSettings 
   sb.weight += voxels;
   sb.brick_flags += bricks;
   sb.brick_list += bricks;
+  if (sb.block_mask != nullptr) sb.block_mask += bricks;
   TsdfVolume space[2];
   PinholeSlot* cam[2] = {&a, &b};
   for (int k = 0; k < 2; ++k) {

@@ -59,6 +59,8 @@ enum class Region : int {
   kLocCandidates,   //!< pose candidates (vote peaks)
   kLocVerified,     //!< refined, verified hypotheses
   kLocResults,      //!< the pose list
+  // raycast speed work (perf2)
+  kBlockMasks,      //!< per brick: which of its 64 blocks of 2^3 voxels hold a distance < +1
   kCount
 };
 
@@ -128,6 +130,7 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kLocCandidates, "loc pose candidates", uint64_t(c.hypotheses_max) * sizeof(PoseCandidate));
   set(Region::kLocVerified, "loc verified hypotheses", mm * kClustersPerModel * sizeof(LocalizedObject));
   set(Region::kLocResults, "loc pose list", uint64_t(c.objects_max) * sizeof(LocalizedObject));
+  set(Region::kBlockMasks, "brick block masks", bricks * sizeof(uint64_t));  // raycast speed work (perf2)
   uint64_t total = 0;
   for (const MemoryRegion& r : m.regions) total += align_up(r.bytes, kRegionAlign);
   m.total_bytes = total;

@@ -47,6 +47,10 @@ struct VoxelStorage {
   uint8_t* colour_weight = nullptr;   //!< capacity_dim^3, or null with colour
   uint8_t* brick_flags = nullptr;     //!< (capacity_dim/8)^3
   uint32_t* brick_list = nullptr;     //!< (capacity_dim/8)^3: bricks selected for one update
+  //! (capacity_dim/8)^3, optional (null: the raycast bounds its search by whole bricks). Bit
+  //! (z/2)*16 + (y/2)*4 + x/2 of a kBrickSurface brick is set when the 2^3 voxels at local
+  //! (x, y, z) hold an observed distance < +1; integration keeps it current (block_mask.hpp).
+  uint64_t* block_mask = nullptr;
   int capacity_dim = 0;               //!< voxels per axis the buffers hold
 };
 
@@ -124,6 +128,8 @@ class TsdfVolume {
   uint8_t* brick_flags() { return s_.brick_flags; }
   const uint8_t* brick_flags() const { return s_.brick_flags; }
   uint32_t* brick_list() { return s_.brick_list; }
+  uint64_t* block_mask() { return s_.block_mask; }
+  const uint64_t* block_mask() const { return s_.block_mask; }
 
   //! Number of voxels with weight > 0.
   std::size_t observed_voxels() const;
