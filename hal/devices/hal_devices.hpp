@@ -23,6 +23,9 @@
 
 namespace edgefuse::hal {
 
+class SimDepthCamera;
+class ReplayDepthCamera;
+
 class HalDevices {
  public:
   HalDevices();
@@ -39,6 +42,12 @@ class HalDevices {
   DeviceMonitor& monitor() { return *monitor_; }
   //! The line scanner, or null when the board has none.
   LineScanner* scanner() { return scanner_; }
+  //! The true pose of a frame of camera i when its backend knows it (sim: the simulated rig's
+  //! motion; replay: the recording's ground truth of the frame delivered last); edgefused uses it
+  //! in place of tracking when configured. \return false for real devices or without truth
+  //! \param i camera index  \param sequence the frame's device sequence number (sim)
+  //! \param T_world_cam receives the camera-to-world pose
+  bool known_pose(int i, uint32_t sequence, Pose& T_world_cam) const;
   //! Names of the backends compiled into this build ("sim replay v4l2 ...").
   static const char* built_backends();
 
@@ -48,6 +57,8 @@ class HalDevices {
   SimScene scene_;
   std::vector<io::BoardCamera> configs_;
   std::vector<DepthCamera*> cameras_;
+  std::vector<const SimDepthCamera*> sim_cameras_;        // per camera, null unless sim
+  std::vector<const ReplayDepthCamera*> replay_cameras_;  // per camera, null unless replay
   std::vector<std::unique_ptr<FaultCamera>> faults_;
   DeviceMonitor* monitor_ = nullptr;
   LineScanner* scanner_ = nullptr;

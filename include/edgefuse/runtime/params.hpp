@@ -43,6 +43,10 @@ enum ParamId : int {
   kSensorsReplay,
   kTsdfVoxelM,
   kTsdfTruncM,
+  // real pipeline in edgefused (issue 7 wiring, feat/wire)
+  kPipelineSource,
+  kLocalizeModels,
+  kFiltersBilateral,
   kParamCount
 };
 
