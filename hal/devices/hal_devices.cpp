@@ -73,7 +73,8 @@ const char* HalDevices::built_backends() {
       ;
 }
 
-bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override) {
+bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override,
+                       bool replay_loop) {
   owned_->sim_monitor.reset(new SimDeviceMonitor(clock));
   monitor_ = owned_->sim_monitor.get();
   bool any_usb = false;
@@ -109,7 +110,7 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
           err = where + ": replay: " + e;
           return false;
         }
-        ReplayDepthCamera* rc = new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, true);
+        ReplayDepthCamera* rc = new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, replay_loop);
         cam.reset(rc);
         replay_cam = rc;
         owned_->sequences.push_back(std::move(seq));

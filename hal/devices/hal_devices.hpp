@@ -33,7 +33,9 @@ class HalDevices {
   //! Builds every camera and the monitor of `board`.
   //! \param board parsed hal.toml  \param clock the HAL clock  \param err names the failing camera
   //! \param replay_override a data set folder: every camera replays its sensor from it instead
-  bool build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override = "");
+  //! \param replay_loop replayed recordings start again after their last frame (else end of stream)
+  bool build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override = "",
+             bool replay_loop = true);
   int camera_count() const { return int(cameras_.size()); }
   //! Camera i as the runtime uses it (inside its FaultCamera).
   //! \param i index in hal.toml order

@@ -85,7 +85,9 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
   const std::string hal_path = std::string(kBoardSourceDir) + "/" + config.board + "/hal.toml";
   io::BoardHal hal_data;
   if (!io::read_board_hal(hal_path, hal_data, err)) return false;
-  if (!devices_.build(hal_data, hal::monotonic_clock(), err, config.replay)) {
+  // A replayed recording is one scan: it ends after its last frame (each frame integrated once) and
+  // the rig then counts as still (the still-period trigger localises).
+  if (!devices_.build(hal_data, hal::monotonic_clock(), err, config.replay, false)) {
     err = hal_path + ": " + err;
     return false;
   }
@@ -227,6 +229,12 @@ void FusionPipeline::step(uint64_t now_us) {
   if (localizing_) return;  // the volume belongs to the localiser now; the camera keeps its newest frame
   const hal::HalStatus s = devices_.camera(0).next_frame(frame_, 0);
   if (s == hal::HalStatus::kTimeout) return;
+  if (s == hal::HalStatus::kEndOfStream) {
+    camera_state_ = "end of recording";
+    stats_.fps = 0;
+    if (stats_.still_since_us == 0) stats_.still_since_us = now_us;
+    return;
+  }
   if (s != hal::HalStatus::kOk) {
     ++stats_.drops;
     camera_state_ = hal::to_string(s);
