@@ -43,6 +43,10 @@ const ParamDef kParamDefs[kParamCount] = {
      "a PLY model or a folder of them ('' : a replayed rig set's models, else model-free segments)"},
     {"filters.bilateral", ParamType::kBool, 0, 1, "false", false,
      "bilateral depth filter before integration (the sensor kind's masks always run)"},
+    {"tracking.poses", ParamType::kString, 0, kParamTextMax, "known", false,
+     "'known' (the sim / replay backend's true poses) or 'tracked' (ICP against the raycast model)"},
+    {"tracking.push_every_frame", ParamType::kBool, 0, 1, "false", false,
+     "tracked: integrate every frame (else when the sensor moved 1 cm or 1 degree)"},
 };
 
 namespace {

@@ -19,6 +19,7 @@
 #include "hal/posix/monotonic_clock.hpp"
 #include "localize_io.hpp"
 #include "parallel_tsdf.hpp"
+#include "edgefuse/tracking/pyramid.hpp"
 
 namespace edgefuse::wire {
 
@@ -118,6 +119,13 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
   fuse_.dim = board->volume_dim;
   if (!core_.make_volume(fuse_, err)) return false;
 
+  // Tracking buffers of sensor slot 0 (board capacities).
+  if (core_.buffers.pyramid<real_t>(0, intr_, pyramid_) != Status::kOk) {
+    err = std::string("camera '") + cam.name() + "': the frame pyramid does not fit the board's buffers";
+    return false;
+  }
+  icp_ws_ = core_.buffers.icp_workspace<real_t>(0);
+
   // Filters of the sensor kind (an amplitude image means time of flight).
   filters_ = DepthFilterChain<real_t>::defaults_for(
       intr_, mode.amplitude ? DepthSensorKind::kTimeOfFlight : DepthSensorKind::kStructuredLight);
@@ -163,7 +171,11 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
               cam.name(), config.replay.empty() ? "hal.toml backend" : "replay of ",
               config.replay.c_str(), intr_.width, intr_.height,
               mode.amplitude ? "tof" : "structured-light", config.bilateral ? "+bilateral" : "", fuse_.dim,
-              fuse_.voxel_m * 1e3, "known (the backend's truth; tracking not wired)", fuse_.threads);
+              fuse_.voxel_m * 1e3,
+              config.tracked ? (config.push_every_frame ? "tracked (ICP against the raycast model, every frame pushed)"
+                                                        : "tracked (ICP against the raycast model, push after 1 cm / 1 deg)")
+                             : "known (the backend's truth)",
+              fuse_.threads);
   pool_.start(fuse_.threads);
   thread_ = std::thread([this] { localize_thread(); });
   return true;
@@ -253,20 +265,63 @@ void FusionPipeline::step(uint64_t now_us) {
 }
 
 void FusionPipeline::integrate_frame(uint64_t now_us) {
-  Pose T;
-  if (!devices_.known_pose(0, frame_.sequence, T)) {
-    // No truth for this frame (a real device, or a recording without ground truth): without
-    // tracking it cannot be placed, so it is not integrated.
-    stats_.tracking = edgefuse_link_TrackingState_TRACKING_LOST;
+  const ImageView<uint16_t> out(g_filtered, frame_.width, frame_.height);
+  if (filters_.run(frame_.depth_view(), frame_.amplitude_view(),
+                   ImageView<uint16_t>(g_filter_scratch, frame_.width, frame_.height), out) != Status::kOk) {
     ++stats_.drops;
-    if (!warned_no_pose_) {
-      std::printf("pipeline: camera %s gives no known pose and tracking is not wired in: frames are not integrated\n",
-                  devices_.camera(0).name());
-      warned_no_pose_ = true;
-    }
     return;
   }
-  stats_.tracking = edgefuse_link_TrackingState_TRACKING_OK;
+  ++stats_.frames;
+  DepthFrame f;
+  f.depth = ImageView<const uint16_t>(g_filtered, frame_.width, frame_.height);
+  if (frame_.has_colour) f.colour = frame_.colour_view();
+
+  Pose T;
+  const bool known = devices_.known_pose(0, frame_.sequence, T);
+  bool push = true;
+  if (config_.tracked) {
+    // The paper's loop (Fig. 3): ICP of the frame against the model raycast at the last good pose;
+    // pushed when it moved 1 cm / 1 degree. A new map starts at the backend's known pose (the
+    // world frame of the truth), else at the identity.
+    const bool first = clear_pending_ || map_frames_ == 0;
+    TrackerParams tp;
+    tp.push.every_frame = config_.push_every_frame;
+    if (first && tracker_.start(known ? T : Pose::identity(), tp, true) != Status::kOk) {
+      ++stats_.drops;
+      return;
+    }
+    if (first && clear_pending_) centre_volume(f, known ? T : Pose::identity());
+    Status s = Status::kOk;
+    if (!first) s = raycast_parallel<real_t>(pool_, core_.volume, intr_, tracker_.raycast_pose(), core_.maps, core_.scratch);
+    TrackResult r;
+    if (s == Status::kOk) s = build_pyramid<real_t>(f.depth, PyramidParams(), pyramid_);
+    if (s == Status::kOk) s = tracker_.track<real_t>(pyramid_, core_.maps, intr_, icp_ws_, r, nullptr);
+    if (s != Status::kOk) {
+      ++stats_.drops;
+      return;
+    }
+    stats_.tracking = r.state == TrackState::kOk         ? edgefuse_link_TrackingState_TRACKING_OK
+                      : r.state == TrackState::kDegraded ? edgefuse_link_TrackingState_TRACKING_DEGRADED
+                                                         : edgefuse_link_TrackingState_TRACKING_LOST;
+    if (r.state == TrackState::kLost) ++lost_frames_;
+    push = r.push;
+    if (known) track_err_m_ = (r.T_world_cam.t - T.t).norm();  // against the backend's truth
+    T = r.T_world_cam;
+  } else {
+    if (!known) {
+      // No truth for this frame (a real device, or a recording without ground truth) and tracking
+      // is off (tracking.poses = known): the frame cannot be placed and is not integrated.
+      stats_.tracking = edgefuse_link_TrackingState_TRACKING_LOST;
+      ++stats_.drops;
+      if (!warned_no_pose_) {
+        std::printf("pipeline: camera %s gives no known pose (set tracking.poses = tracked): frames are not integrated\n",
+                    devices_.camera(0).name());
+        warned_no_pose_ = true;
+      }
+      return;
+    }
+    stats_.tracking = edgefuse_link_TrackingState_TRACKING_OK;
+  }
   // Still detection from the pose change since the previous frame.
   if (have_last_pose_) {
     const float moved_m = (T.t - last_pose_.t).norm();
@@ -279,23 +334,14 @@ void FusionPipeline::integrate_frame(uint64_t now_us) {
   }
   have_last_pose_ = true;
   last_pose_ = T;
+  if (!push) return;
 
-  const ImageView<uint16_t> out(g_filtered, frame_.width, frame_.height);
-  if (filters_.run(frame_.depth_view(), frame_.amplitude_view(), ImageView<uint16_t>(g_filter_scratch, frame_.width, frame_.height),
-                   out) != Status::kOk) {
-    ++stats_.drops;
-    return;
-  }
-  DepthFrame f;
-  f.depth = ImageView<const uint16_t>(g_filtered, frame_.width, frame_.height);
-  if (frame_.has_colour) f.colour = frame_.colour_view();
   if (clear_pending_) centre_volume(f, T);
   const Status s = integrate_parallel<real_t>(pool_, core_.volume, intr_, core_.ray_norms, f, T, core_.scratch);
   if (s != Status::kOk) {
     ++stats_.drops;
     return;
   }
-  ++stats_.frames;
   ++map_frames_;
   view_sum_ += T.t;
   last_capture_us_ = frame_.stamp_us;
@@ -419,9 +465,12 @@ void FusionPipeline::run_localization() {
                 double(q.x()), double(q.y()), double(q.z()), double(q.w()), double(o[i].score));
   }
   last_localize_cpu_ms_ = thread_cpu_ms() - t0;
-  std::printf("localize: %zu frames, surface %zu points, floor %s, %zu %s, %.0f ms CPU\n", size_t(map_frames_),
-              surface, loc_.context().has_floor ? "found" : "not found", count, models ? "objects" : "segments",
-              last_localize_cpu_ms_);
+  std::printf("localize: %zu frames in the map, surface %zu points, floor %s, %zu %s, %.0f ms CPU\n",
+              size_t(map_frames_), surface, loc_.context().has_floor ? "found" : "not found", count,
+              models ? "objects" : "segments", last_localize_cpu_ms_);
+  if (config_.tracked)
+    std::printf("localize: tracking: %u lost frames, last pose %.2f mm from the backend's truth\n",
+                unsigned(lost_frames_), double(track_err_m_) * 1e3);
   std::fflush(stdout);
 }
 

@@ -4,9 +4,11 @@
 // extraction, bin removal and model-based localisation (PPF + ICP + free-space verification) or,
 // without models, model-free segments -> a LocalizationResult for the link.
 //
-// Poses: the backend's known poses (sim: the simulated rig's motion; replay: the recording's ground
-// truth). Tracking (ICP against the raycast model) is not wired in yet: a camera without known poses
-// (a real device) is refused at start-up with a message.
+// Poses (tracking.poses): "known" = the backend's known poses (sim: the simulated rig's motion;
+// replay: the recording's ground truth), every frame pushed; "tracked" = the tracking module (ICP
+// against the model raycast at the last good pose, push after 1 cm / 1 degree), starting at the
+// backend's known pose of the map's first frame (else the identity). With "known", a camera without
+// known poses (a real device) has its frames counted as drops and says so once.
 //
 // Memory: everything is allocated in init() (arena carve as CoreSetup does, models, worker threads,
 // the localisation thread); step() and the localisation run without the heap (the replay backend's
@@ -28,6 +30,7 @@
 #include "edgefuse/filters/depth_filter_chain.hpp"
 #include "edgefuse/localize/localizer.hpp"
 #include "edgefuse/runtime/pipeline.hpp"
+#include "edgefuse/tracking/tracker.hpp"
 #include "hal/devices/hal_devices.hpp"
 #include "worker_pool.hpp"
 
@@ -41,6 +44,8 @@ struct FusionPipelineConfig {
   float trunc_m = 0.008f;   //!< TSDF truncation
   bool bilateral = false;   //!< bilateral filter on
   float min_score = 0.3f;   //!< localiser's own acceptance (the runtime filters again by its param)
+  bool tracked = false;     //!< poses by ICP tracking (else the backend's known poses)
+  bool push_every_frame = false;  //!< tracked: integrate every frame (else after 1 cm / 1 degree)
 };
 
 class FusionPipeline final : public runtime::Pipeline {
@@ -87,6 +92,11 @@ class FusionPipeline final : public runtime::Pipeline {
   DepthFilterChain<real_t> filters_;
   Localizer loc_;
   LocalizeParams loc_params_;
+  Tracker tracker_;
+  FramePyramid<real_t> pyramid_;
+  IcpWorkspace<real_t> icp_ws_;
+  uint32_t lost_frames_ = 0;
+  float track_err_m_ = 0;
   WorkerPool pool_;
 
   bool camera_running_ = false;

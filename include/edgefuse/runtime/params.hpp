@@ -47,6 +47,8 @@ enum ParamId : int {
   kPipelineSource,
   kLocalizeModels,
   kFiltersBilateral,
+  kTrackingPoses,
+  kTrackingPushEveryFrame,
   kParamCount
 };
 
