@@ -13,8 +13,9 @@ small fragments by the xtion and is not required; no reported pose may be unmatc
 positive above localize.min_score).
 
 usage: edgefused_fusion_e2e.py EDGEFUSED EDGEFUSE DATA_DIR WORKDIR [sanitized]
-Skips (exit 0 with a message) when DATA_DIR/bin_rig_a is absent. A second run uses the sim backend's
-own scene (no replay, no models): model-free segments must lie at every object of objects.txt.
+Skips (exit 0 with a message) when DATA_DIR/bin_rig_a is absent. A second run tracks the poses
+(tracking.poses=tracked); a third uses the sim backend's own scene (no replay, no models):
+model-free segments must lie at every object of objects.txt.
 """
 import os
 import re
@@ -202,10 +203,54 @@ text = stop(d, log, 2)
 if failures:
     print(text)
 
+# --- tracked poses: the same replay, poses by ICP tracking against the raycast model (from the first
+# frame's known pose), every frame pushed. Measured: tracking 0.4 mm from the truth at the last
+# frame; objects 1, 2, 4, 6 within 5 mm / 5 deg (box 3 is missed with the tracked map). Required:
+# no lost frame, those four objects, no false positive.
+d, log, info = start(["--set", "sensors.replay=" + RIG, "--set", "localize.still_period_s=1", "--set",
+                      "tracking.poses=tracked", "--set", "tracking.push_every_frame=true"], "edgefused_tracked.log")
+check("ready" in info, "edgefused started with tracking.poses=tracked")
+if "ready" in info:
+    port = int(info["tcp"].rsplit(":", 1)[1])
+    con = open_raw(info["console"])
+    listen = subprocess.Popen([EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "1",
+                               "--timeout-s", "150"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(0.5)
+    check(command(con, "scan start").endswith("OK\r\n"), "tracked: scan start")
+    try:
+        out, err = listen.communicate(timeout=200)
+    except subprocess.TimeoutExpired:
+        listen.kill()
+        out, err = listen.communicate()
+    rows = [l.split(",") for l in out.strip().splitlines() if l[:1].isdigit()]
+    check(listen.returncode == 0, "tracked: a result by the still-period trigger")
+    est = os.path.join(WORK, "poses_tracked.txt")
+    with open(est, "w") as f:
+        for k, r in enumerate(rows):
+            f.write("%d %s %s %s\n" % (k + 1, " ".join(r[3:10]), r[10], models.get(int(r[2]), "unknown")))
+    ev = subprocess.run([EDGEFUSE, "eval", "poses", est, os.path.join(RIG, "objects.txt")], capture_output=True,
+                        text=True)
+    print(ev.stdout.strip())
+    for oid in (1, 2, 4, 6):
+        m = re.search(r"^object %d \((\S+)\): est #\d+ score \S+\s+t_err (\S+) mm\s+r_err (\S+) deg" % oid, ev.stdout,
+                      re.M)
+        ok = m is not None and float(m.group(2)) <= TOL_MM and float(m.group(3)) <= TOL_DEG
+        check(ok, "tracked: object %d within %.0f mm / %.0f deg: %s" % (oid, TOL_MM, TOL_DEG,
+                                                                        m.group(0) if m else "not found"))
+    m = re.search(r"unmatched_estimates=(\d+)", ev.stdout)
+    check(m is not None and int(m.group(1)) == 0, "tracked: no false positives")
+    text = stop(d, log, 1)
+    m = re.search(r"tracking: (\d+) lost frames, last pose (\S+) mm from", text)
+    check(m is not None and int(m.group(1)) == 0 and float(m.group(2)) < 2.0,
+          "tracked: %s" % (m.group(0) if m else "no tracking line"))
+else:
+    d.kill()
+
 # --- the sim backend's own scene (no replay): bin_rig_a's objects as analytic solids, no models
 # configured, so localize reports model-free segments (id 0) at box centres of the visible parts.
-# Each object's position must have a segment within 25 mm horizontally (a segment's centre is that
-# of the part the xtion sees, not the model's origin: half an object's size at most).
+# Each object's position must have a segment within 30 mm horizontally (a segment's centre is that
+# of the part the xtion sees, not the model's origin: up to half an object's size off; measured up
+# to 17 mm for the lying cylinder, 80 mm long).
 truth = {}
 for line in open(os.path.join(RIG, "objects.txt")):
     f = line.split()
@@ -239,7 +284,7 @@ if "ready" in info:
     check(listen.returncode == 0 and len(segs) > 0, "sim: %d segments received" % len(segs))
     for oid, (x, y) in sorted(truth.items()):
         dist = min((((sx - x) ** 2 + (sy - y) ** 2) ** 0.5 for sx, sy in segs), default=1.0)
-        check(dist <= 0.025, "sim: object %d has a segment %.1f mm away horizontally" % (oid, dist * 1e3))
+        check(dist <= 0.030, "sim: object %d has a segment %.1f mm away horizontally" % (oid, dist * 1e3))
     text = stop(d, log, 1)
 else:
     d.kill()
