@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <vector>
 
 #include "board_defaults.hpp"
@@ -80,6 +81,11 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
   const BoardCapacities* board = find_board(config.board.c_str());
   if (board == nullptr) {
     err = "unknown board " + config.board;
+    return false;
+  }
+  if (std::strcmp(board->name, build_board().name) != 0) {
+    err = "board " + config.board + ": this build's static memory is sized for board " + build_board().name +
+          " (build that board's preset, or run pipeline.source=simulated)";
     return false;
   }
   // Devices from the board's hal.toml (sensors.replay: every camera replays the rig set instead).
