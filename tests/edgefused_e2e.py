@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""End-to-end on loopback: edgefused (host-sim, simulated pose source) is driven over its console
+"""End-to-end on loopback: edgefused (host-sim, simulated pose source: pipeline.source=simulated) is driven over its console
 pseudo-terminal; `edgefuse listen` and tools/listen.py receive the results over TCP and the
 heartbeats over the link pseudo-terminal; the poses must equal the simulated bin's; memory (VmData)
 stays flat over many localisation cycles; SIGTERM stops it cleanly; bad configuration values stop
@@ -19,6 +19,9 @@ import termios
 import time
 
 EDGEFUSED, EDGEFUSE, LISTEN_PY, WORK = sys.argv[1:5]
+# This test checks the runtime, console and link with exact poses: it runs the simulated pose
+# source. The real pipeline is tested by edgefused_fusion_e2e.py.
+SIM = ["--set", "pipeline.source=simulated"]
 # Under AddressSanitizer its own bookkeeping maps memory: the flat-memory check is skipped there.
 SANITIZED = len(sys.argv) > 5 and sys.argv[5] == "sanitized"
 # tools/edgefused/sim_pipeline.cpp: kSimObjects (id, t, q, score)
@@ -84,22 +87,22 @@ def check_csv(text, who):
 shutil.rmtree(WORK, ignore_errors=True)  # a previous run's calibration slots
 os.makedirs(WORK, exist_ok=True)
 # --- bad configuration stops start-up with key, value and range ------------------------------
-bad = subprocess.run([EDGEFUSED, "--set", "link.tcp_port=70000"], capture_output=True, text=True, cwd=WORK)
+bad = subprocess.run([EDGEFUSED, *SIM, "--set", "link.tcp_port=70000"], capture_output=True, text=True, cwd=WORK)
 check(bad.returncode == 1 and "link.tcp_port = 70000 is out of range [0, 65535]" in bad.stderr,
       "bad --set value refused: " + bad.stderr.strip())
 cfg = os.path.join(WORK, "bad.toml")
 with open(cfg, "w") as f:
     f.write("[localize]\nmin_score = 3\n")
-bad = subprocess.run([EDGEFUSED, "--config", cfg], capture_output=True, text=True, cwd=WORK)
+bad = subprocess.run([EDGEFUSED, *SIM, "--config", cfg], capture_output=True, text=True, cwd=WORK)
 check(bad.returncode == 1 and "localize.min_score = 3 is out of range [0, 1]" in bad.stderr and cfg in bad.stderr,
       "bad config value refused: " + bad.stderr.strip())
 
-ok = subprocess.run([EDGEFUSED, "--board", "am335x", "--help"], capture_output=True, text=True)
+ok = subprocess.run([EDGEFUSED, *SIM, "--board", "am335x", "--help"], capture_output=True, text=True)
 check(ok.returncode == 0 and "--set KEY=VALUE" in ok.stdout, "edgefused --help")
-bad = subprocess.run([EDGEFUSED, "--board", "nosuch"], capture_output=True, text=True, cwd=WORK)
+bad = subprocess.run([EDGEFUSED, *SIM, "--board", "nosuch"], capture_output=True, text=True, cwd=WORK)
 check(bad.returncode == 1 and "unknown board 'nosuch'" in bad.stderr, "unknown board refused: " + bad.stderr.strip())
 # Board data: am335x's [tsdf] defaults (4 mm voxels) reach the parameters; --set still wins.
-p = subprocess.Popen([EDGEFUSED, "--board", "am335x", "--set", "link.tcp=false", "--set", "link.serial=",
+p = subprocess.Popen([EDGEFUSED, *SIM, "--board", "am335x", "--set", "link.tcp=false", "--set", "link.serial=",
                       "--set", "console.serial=", "--set", "tsdf.trunc_m=0.02"],
                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK)
 first = p.stdout.readline()
@@ -113,7 +116,7 @@ probe.bind(("127.0.0.1", 0))
 udp_port = probe.getsockname()[1]
 probe.close()
 log = open(os.path.join(WORK, "edgefused.log"), "w+")
-d = subprocess.Popen([EDGEFUSED, "--set", "link.tcp_port=0", "--set", "console.echo=false",
+d = subprocess.Popen([EDGEFUSED, *SIM, "--set", "link.tcp_port=0", "--set", "console.echo=false",
                       "--set", "link.udp_host=127.0.0.1", "--set", "link.udp_port=%d" % udp_port,
                       "--set", "link.heartbeat_ms=200", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
                      stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
@@ -205,7 +208,7 @@ if os.path.exists(notify_path):
 notify = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
 notify.bind(notify_path)
 env = dict(os.environ, NOTIFY_SOCKET=notify_path, WATCHDOG_USEC="200000")
-proc = subprocess.Popen([EDGEFUSED, "--set", "link.tcp=false", "--set", "console.serial=", "--set", "link.serial=",
+proc = subprocess.Popen([EDGEFUSED, *SIM, "--set", "link.tcp=false", "--set", "console.serial=", "--set", "link.serial=",
                          "--set", "calib.dir=" + os.path.join(WORK, "calib")],
                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK, env=env)
 time.sleep(0.7)
@@ -228,7 +231,7 @@ spec = importlib.util.spec_from_file_location("listen", LISTEN_PY)
 listen_mod = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(listen_mod)
 pb2 = listen_mod.load_pb2()
-proc = subprocess.Popen([EDGEFUSED, "--set", "link.tcp=false", "--set", "console.serial=link",
+proc = subprocess.Popen([EDGEFUSED, *SIM, "--set", "link.tcp=false", "--set", "console.serial=link",
                          "--set", "console.echo=false", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK)
 link_dev = None

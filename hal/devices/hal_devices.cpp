@@ -46,6 +46,16 @@ struct HalDevices::Owned {
 HalDevices::HalDevices() : owned_(new Owned) { default_bin_scene(scene_); }
 HalDevices::~HalDevices() = default;
 
+bool HalDevices::known_pose(int i, uint32_t sequence, Pose& T_world_cam) const {
+  if (i < 0 || i >= int(cameras_.size())) return false;
+  if (sim_cameras_[std::size_t(i)] != nullptr) {
+    T_world_cam = sim_cameras_[std::size_t(i)]->pose_of(sequence);
+    return true;
+  }
+  if (replay_cameras_[std::size_t(i)] != nullptr) return replay_cameras_[std::size_t(i)]->last_pose(T_world_cam);
+  return false;
+}
+
 const char* HalDevices::built_backends() {
   return "sim replay null"
 #if EDGEFUSE_HAVE_OPENNI2
@@ -63,12 +73,15 @@ const char* HalDevices::built_backends() {
       ;
 }
 
-bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override) {
+bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override,
+                       bool replay_loop) {
   owned_->sim_monitor.reset(new SimDeviceMonitor(clock));
   monitor_ = owned_->sim_monitor.get();
   bool any_usb = false;
   for (const io::BoardCamera& c : board.cameras) {
     std::unique_ptr<DepthCamera> cam;
+    const SimDepthCamera* sim_cam = nullptr;
+    const ReplayDepthCamera* replay_cam = nullptr;
     const io::CameraBackend backend = replay_override.empty() ? c.backend : io::CameraBackend::kReplay;
     const std::string where = "camera '" + c.name + "'";
     switch (backend) {
@@ -83,7 +96,9 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
           return false;
         }
         if (c.fps > 0) sc.fps = c.fps;
-        cam.reset(new SimDepthCamera(sc, scene_, clock));
+        SimDepthCamera* sc_cam = new SimDepthCamera(sc, scene_, clock);
+        cam.reset(sc_cam);
+        sim_cam = sc_cam;
         break;
       }
       case io::CameraBackend::kReplay: {
@@ -95,7 +110,9 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
           err = where + ": replay: " + e;
           return false;
         }
-        cam.reset(new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, true));
+        ReplayDepthCamera* rc = new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, replay_loop);
+        cam.reset(rc);
+        replay_cam = rc;
         owned_->sequences.push_back(std::move(seq));
         break;
       }
@@ -147,6 +164,8 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
     any_usb = any_usb || (c.has_usb && replay_override.empty() && backend != io::CameraBackend::kSim);
     configs_.push_back(c);
     cameras_.push_back(cam.get());
+    sim_cameras_.push_back(sim_cam);
+    replay_cameras_.push_back(replay_cam);
     owned_->cameras.push_back(std::move(cam));
   }
 #if EDGEFUSE_HAVE_LIBUSB

@@ -23,6 +23,9 @@
 
 namespace edgefuse::hal {
 
+class SimDepthCamera;
+class ReplayDepthCamera;
+
 class HalDevices {
  public:
   HalDevices();
@@ -30,7 +33,9 @@ class HalDevices {
   //! Builds every camera and the monitor of `board`.
   //! \param board parsed hal.toml  \param clock the HAL clock  \param err names the failing camera
   //! \param replay_override a data set folder: every camera replays its sensor from it instead
-  bool build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override = "");
+  //! \param replay_loop replayed recordings start again after their last frame (else end of stream)
+  bool build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override = "",
+             bool replay_loop = true);
   int camera_count() const { return int(cameras_.size()); }
   //! Camera i as the runtime uses it (inside its FaultCamera).
   //! \param i index in hal.toml order
@@ -39,6 +44,12 @@ class HalDevices {
   DeviceMonitor& monitor() { return *monitor_; }
   //! The line scanner, or null when the board has none.
   LineScanner* scanner() { return scanner_; }
+  //! The true pose of a frame of camera i when its backend knows it (sim: the simulated rig's
+  //! motion; replay: the recording's ground truth of the frame delivered last); edgefused uses it
+  //! in place of tracking when configured. \return false for real devices or without truth
+  //! \param i camera index  \param sequence the frame's device sequence number (sim)
+  //! \param T_world_cam receives the camera-to-world pose
+  bool known_pose(int i, uint32_t sequence, Pose& T_world_cam) const;
   //! Names of the backends compiled into this build ("sim replay v4l2 ...").
   static const char* built_backends();
 
@@ -48,6 +59,8 @@ class HalDevices {
   SimScene scene_;
   std::vector<io::BoardCamera> configs_;
   std::vector<DepthCamera*> cameras_;
+  std::vector<const SimDepthCamera*> sim_cameras_;        // per camera, null unless sim
+  std::vector<const ReplayDepthCamera*> replay_cameras_;  // per camera, null unless replay
   std::vector<std::unique_ptr<FaultCamera>> faults_;
   DeviceMonitor* monitor_ = nullptr;
   LineScanner* scanner_ = nullptr;

@@ -85,6 +85,7 @@ HalStatus ReplayDepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms) 
   frame.depth_scale = seq_.intr.depth_scale;
   frame.stamp_us = stamp_us;
   frame.sequence = sequence_++;
+  delivered_ = true;
   return HalStatus::kOk;
 }
 

@@ -33,6 +33,13 @@ class ReplayDepthCamera final : public DepthCamera {
 
   //! Why the last next_frame failed with kBadFrame (names the file).
   const std::string& last_error() const { return error_; }
+  //! Ground-truth pose of the frame delivered last. \return false before a frame or without truth
+  //! \param T_world_cam receives the recording's camera-to-world pose
+  bool last_pose(Pose& T_world_cam) const {
+    if (!delivered_ || !seq_.frames[last_index()].has_pose) return false;
+    T_world_cam = seq_.frames[last_index()].T_world_cam;
+    return true;
+  }
   //! Index in the sequence of the frame delivered last.
   std::size_t last_index() const { return index_ == 0 ? 0 : index_ - 1; }
 
@@ -42,6 +49,7 @@ class ReplayDepthCamera final : public DepthCamera {
   Clock& clock_;
   bool loop_;
   bool running_ = false;
+  bool delivered_ = false;  // a frame was delivered (last_index() names it)
   std::size_t index_ = 0;
   uint32_t sequence_ = 0;
   uint64_t start_us_ = 0;

@@ -36,6 +36,17 @@ const ParamDef kParamDefs[kParamCount] = {
      "host-sim: replay this rig set instead of the built-in scene"},
     {"tsdf.voxel_m", ParamType::kFloat, 0.0005, 0.05, "0.002", false, "voxel edge length"},
     {"tsdf.trunc_m", ParamType::kFloat, 0.001, 0.2, "0.008", false, "truncation distance"},
+    // real pipeline in edgefused (issue 7 wiring, feat/wire)
+    {"pipeline.source", ParamType::kString, 0, kParamTextMax, "fusion", false,
+     "'fusion' (HAL frames -> filters -> TSDF -> localisation) or 'simulated' (fixed test poses)"},
+    {"localize.models", ParamType::kString, 0, kParamTextMax, "", false,
+     "a PLY model or a folder of them ('' : a replayed rig set's models, else model-free segments)"},
+    {"filters.bilateral", ParamType::kBool, 0, 1, "false", false,
+     "bilateral depth filter before integration (the sensor kind's masks always run)"},
+    {"tracking.poses", ParamType::kString, 0, kParamTextMax, "known", false,
+     "'known' (the sim / replay backend's true poses) or 'tracked' (ICP against the raycast model)"},
+    {"tracking.push_every_frame", ParamType::kBool, 0, 1, "false", false,
+     "tracked: integrate every frame (else when the sensor moved 1 cm or 1 degree)"},
 };
 
 namespace {

@@ -23,6 +23,7 @@
 #include "edgefuse/memory/arena.hpp"
 #include "edgefuse/runtime/console.hpp"
 #include "edgefuse/runtime/runtime.hpp"
+#include "fusion_pipeline.hpp"
 #include "sim_pipeline.hpp"
 
 using namespace edgefuse;
@@ -134,7 +135,8 @@ class FileCalibStorage : public runtime::CalibrationStorage {
 
 // Static: nothing of the runtime lives on the heap.
 runtime::ParamStore g_params;
-sim::SimPipeline g_pipeline;
+sim::SimPipeline g_sim_pipeline;    // pipeline.source = simulated: fixed test poses
+wire::FusionPipeline g_fusion;      // pipeline.source = fusion (default): HAL -> TSDF -> localisation
 LinkFanout g_link;
 FdWriter g_console_out;
 hal::TcpServer g_tcp;
@@ -219,14 +221,40 @@ int main(int argc, char** argv) {
   std::printf("edgefused %s: board %s, config %s, voxel %g m, truncation %g m\n", PROJECT_VERSION, board.c_str(),
               config.empty() ? "(defaults)" : config.c_str(), g_params.get_number(runtime::kTsdfVoxelM),
               g_params.get_number(runtime::kTsdfTruncM));
-  if (g_params.get_text(runtime::kSensorsReplay)[0] != '\0')
-    std::printf("warning: sensors.replay=%s is accepted but not used yet: host-sim runs the simulated pose source\n",
-                g_params.get_text(runtime::kSensorsReplay));
+  // The pipeline: the real one (devices from the board's hal.toml) or the simulated pose source.
+  runtime::Pipeline* pipeline = &g_fusion;
+  const std::string source = g_params.get_text(runtime::kPipelineSource);
+  if (source == "simulated") {
+    pipeline = &g_sim_pipeline;
+    std::printf("pipeline: simulated pose source (%d fixed objects)\n", int(sizeof(sim::kSimObjects) / sizeof(sim::kSimObjects[0])));
+  } else if (source == "fusion") {
+    wire::FusionPipelineConfig fc;
+    fc.board = board;
+    fc.replay = g_params.get_text(runtime::kSensorsReplay);
+    fc.models = g_params.get_text(runtime::kLocalizeModels);
+    fc.voxel_m = float(g_params.get_number(runtime::kTsdfVoxelM));
+    fc.trunc_m = float(g_params.get_number(runtime::kTsdfTruncM));
+    fc.bilateral = g_params.get_bool(runtime::kFiltersBilateral);
+    const std::string poses = g_params.get_text(runtime::kTrackingPoses);
+    if (poses != "known" && poses != "tracked") {
+      std::fprintf(stderr, "edgefused: tracking.poses = '%s' is not one of known|tracked\n", poses.c_str());
+      return 1;
+    }
+    fc.tracked = poses == "tracked";
+    fc.push_every_frame = g_params.get_bool(runtime::kTrackingPushEveryFrame);
+    if (!g_fusion.init(fc, err)) {
+      std::fprintf(stderr, "edgefused: %s\n", err.c_str());
+      return 1;
+    }
+  } else {
+    std::fprintf(stderr, "edgefused: pipeline.source = '%s' is not one of fusion|simulated\n", source.c_str());
+    return 1;
+  }
 
   // Calibration: the newest valid slot, a corrupt one reported.
   static hal::CalibFileStore store(g_params.get_text(runtime::kCalibDir));
   static FileCalibStorage storage(store);
-  static runtime::Runtime rt(g_pipeline, g_params, storage, g_link);
+  static runtime::Runtime rt(*pipeline, g_params, storage, g_link);
   {
     runtime::CalibrationData d;
     hal::CalibLoadReport rep;
@@ -319,6 +347,7 @@ int main(int argc, char** argv) {
     }
   }
   hal::sd_notify_send("STOPPING=1");
+  g_fusion.shutdown();
   std::printf("edgefused: stopped by %s after %u results\n", g_stop == SIGINT ? "SIGINT" : "SIGTERM",
               unsigned(rt.results_sent()));
   std::fflush(stdout);

@@ -43,6 +43,12 @@ enum ParamId : int {
   kSensorsReplay,
   kTsdfVoxelM,
   kTsdfTruncM,
+  // real pipeline in edgefused (issue 7 wiring, feat/wire)
+  kPipelineSource,
+  kLocalizeModels,
+  kFiltersBilateral,
+  kTrackingPoses,
+  kTrackingPushEveryFrame,
   kParamCount
 };
 

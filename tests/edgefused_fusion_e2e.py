@@ -1,0 +1,301 @@
+#!/usr/bin/python3
+"""End to end with the real pipeline: edgefused on host-sim replays the bin_rig_a rig set
+(--set sensors.replay=DIR: the xtion's frames through the HAL's replay backend, each once, at the
+set's ground-truth poses; the rig's object models from its rig.toml), is driven over its console
+pseudo-terminal (scan start; the still-period trigger after the recording ends; localize), and
+streams the poses over TCP to `edgefuse listen --csv`; `edgefuse eval poses` compares them with the
+set's objects.txt (symmetry-aware).
+
+Tolerance: 5 mm / 5 degrees per object (the localiser reaches ~0.7 mm median on this set; 5 mm is
+2.5 voxels of 2 mm and the set's 5 mm/5 deg recall criterion). Required: objects 1 (can),
+2 (bracket), 3 (box), 4 (cylinder) and 6 (box). Object 5, the upright bracket, is seen only as two
+small fragments by the xtion and is not required (nor is box 3 in the fixed-point build, whose
+`edgefuse localize` misses it too); no reported pose may be unmatched (a false
+positive above localize.min_score).
+
+usage: edgefused_fusion_e2e.py EDGEFUSED EDGEFUSE DATA_DIR WORKDIR [sanitized|plain] [fixed|float]
+Skips (exit 0 with a message) when DATA_DIR/bin_rig_a is absent. A second run tracks the poses
+(tracking.poses=tracked); a third uses the sim backend's own scene (no replay, no models):
+model-free segments must lie at every object of objects.txt.
+"""
+import os
+import re
+import select
+import shutil
+import signal
+import subprocess
+import sys
+import termios
+import time
+
+EDGEFUSED, EDGEFUSE, DATA, WORK = (os.path.abspath(a) for a in sys.argv[1:5])
+# Under AddressSanitizer its own bookkeeping maps memory: the flat-memory check is skipped there.
+SANITIZED = len(sys.argv) > 5 and sys.argv[5] == "sanitized"
+# The fixed-point build integrates in Q16.16: its map differs slightly, and there the localiser
+# misses box 3 (so does that build's `edgefuse localize` on the same frames): not required there.
+FIXED = len(sys.argv) > 6 and sys.argv[6] == "fixed"
+RIG = os.path.join(DATA, "bin_rig_a")
+REQUIRED = [1, 2, 4, 6] if FIXED else [1, 2, 3, 4, 6]
+TOL_MM, TOL_DEG = 5.0, 5.0
+failures = []
+
+
+def check(cond, what):
+    print(("ok   " if cond else "FAIL ") + what, flush=True)
+    if not cond:
+        failures.append(what)
+
+
+def open_raw(dev):
+    fd = os.open(dev, os.O_RDWR | os.O_NOCTTY)
+    a = termios.tcgetattr(fd)
+    a[0] = a[1] = a[3] = 0
+    a[2] = termios.CS8 | termios.CREAD | termios.CLOCAL
+    a[6][termios.VMIN] = 1
+    a[6][termios.VTIME] = 0
+    termios.tcsetattr(fd, termios.TCSANOW, a)
+    return fd
+
+
+def command(fd, line, timeout=10.0):
+    """Sends a console line, returns the reply up to and including OK / ERR."""
+    os.write(fd, (line + "\r").encode())
+    got = b""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        r, _, _ = select.select([fd], [], [], 0.1)
+        if r:
+            got += os.read(fd, 4096)
+            lines = got.decode(errors="replace").split("\r\n")
+            if any(l == "OK" or l.startswith("ERR ") for l in lines[:-1]):
+                break
+    return got.decode(errors="replace")
+
+
+def vm_data_kib(pid):
+    with open("/proc/%d/status" % pid) as f:
+        for line in f:
+            if line.startswith("VmData:"):
+                return int(line.split()[1])
+    return -1
+
+
+def start(extra, logname):
+    """Starts edgefused; returns (process, log file, startup info)."""
+    log = open(os.path.join(WORK, logname), "w+")
+    d = subprocess.Popen([EDGEFUSED, "--set", "link.tcp_port=0", "--set", "link.serial=", "--set", "console.echo=false",
+                          "--set", "calib.dir=" + os.path.join(WORK, "calib")] + extra,
+                         stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
+    info = {}
+    end = time.monotonic() + 120  # start-up samples the models (a few seconds; more under sanitizers)
+    while time.monotonic() < end and "ready" not in info and d.poll() is None:
+        time.sleep(0.1)
+        log.seek(0)
+        for line in log.read().splitlines():
+            k, _, v = line.partition(": ")
+            info[k] = v
+            if line == "ready":
+                info["ready"] = True
+    return d, log, info
+
+
+def stop(d, log, results):
+    d.send_signal(signal.SIGTERM)
+    try:
+        d.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        d.kill()
+        d.wait()
+    log.seek(0)
+    text = log.read()
+    check(d.returncode == 0 and "stopped by SIGTERM after %d results" % results in text,
+          "SIGTERM: clean stop (exit %s)" % d.returncode)
+    return text
+
+
+if not os.path.isfile(os.path.join(RIG, "objects.txt")):
+    print("SKIP: no %s (the shared test data)" % RIG)
+    sys.exit(0)
+shutil.rmtree(WORK, ignore_errors=True)
+os.makedirs(WORK)
+
+d, log, info = start(["--set", "sensors.replay=" + RIG, "--set", "localize.still_period_s=1"], "edgefused.log")
+check("ready" in info, "edgefused started with the real pipeline on the replay of bin_rig_a")
+log.seek(0)
+startup = log.read()
+check("pipeline: camera xtion (replay of " in startup and "poses: known" in startup,
+      "pipeline line: " + next((l for l in startup.splitlines() if l.startswith("pipeline:")), "(none)"))
+if "ready" not in info:
+    print(startup)
+    d.kill()
+    sys.exit(1)
+port = int(info["tcp"].rsplit(":", 1)[1])
+con = open_raw(info["console"])
+
+r = command(con, "model list")
+models = {}
+for line in r.split("\r\n"):
+    m = re.match(r"^(\d+) (\S+)$", line)
+    if m:
+        models[int(m.group(1))] = m.group(2)
+check(sorted(models.values()) == ["box.ply", "bracket.ply", "can.ply", "cylinder.ply"],
+      "model list: the rig's four models: %s" % models)
+
+listen = subprocess.Popen([EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "2",
+                           "--timeout-s", "120"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+time.sleep(0.5)  # the listener connects
+check(command(con, "scan start").endswith("OK\r\n"), "console: scan start")
+# The recording is one scan: its 20 frames are integrated once each, then the camera reports the
+# end of the recording, the rig counts as still, and after localize.still_period_s (1 s) the
+# runtime localises by itself (result 0). Then `localize` on the console gives result 1.
+frames, status = 0, ""
+t0 = time.monotonic()
+while time.monotonic() < t0 + 120 and "end of recording" not in status:
+    time.sleep(0.3)
+    status = command(con, "status")
+    m = re.search(r"frames (\d+)", status)
+    frames = int(m.group(1)) if m else frames
+check("end of recording" in status and frames == 20, "mapping: %d frames integrated, then end of recording" % frames)
+results = 0
+while time.monotonic() < t0 + 180 and results < 1:
+    time.sleep(0.3)
+    m = re.search(r"results (\d+)", command(con, "status"))
+    results = int(m.group(1)) if m else 0
+check(results == 1, "still-period trigger: a result without a command (%d)" % results)
+vm_first = vm_data_kib(d.pid)
+r = command(con, "localize")
+check(r.endswith("OK\r\n"), "console: localize: " + r.strip())
+t1 = time.monotonic()
+try:
+    out, err = listen.communicate(timeout=150)
+except subprocess.TimeoutExpired:
+    listen.kill()
+    out, err = listen.communicate()
+print("second result arrived %.1f s after localize" % (time.monotonic() - t1))
+vm_second = vm_data_kib(d.pid)
+check(SANITIZED or (vm_first > 0 and vm_second == vm_first),
+      "memory flat after start-up: VmData %d KiB after the first result, %d KiB after the second" % (vm_first, vm_second))
+check(listen.returncode == 0, "edgefuse listen got two results (exit %s) %s" % (listen.returncode, err.strip()))
+rows = [l.split(",") for l in out.strip().splitlines() if l and l[0].isdigit()]
+print(out.strip())
+check(all(int(r[1]) > 0 for r in rows), "capture stamps set")
+
+for seq in (0, 1):
+    # The poses in the pose-list format of `edgefuse localize --out`, evaluated against objects.txt.
+    est = os.path.join(WORK, "poses_%d.txt" % seq)
+    mine = [r for r in rows if int(r[0]) == seq]
+    with open(est, "w") as f:
+        for k, r in enumerate(mine):
+            f.write("%d %s %s %s\n" % (k + 1, " ".join(r[3:10]), r[10], models.get(int(r[2]), "unknown")))
+    ev = subprocess.run([EDGEFUSE, "eval", "poses", est, os.path.join(RIG, "objects.txt")], capture_output=True,
+                        text=True)
+    print(ev.stdout.strip())
+    check(ev.returncode == 0, "result %d: eval poses ran %s" % (seq, ev.stderr.strip()))
+    for oid in REQUIRED:
+        m = re.search(r"^object %d \((\S+)\): est #\d+ score \S+\s+t_err (\S+) mm\s+r_err (\S+) deg" % oid, ev.stdout,
+                      re.M)
+        ok = m is not None and float(m.group(2)) <= TOL_MM and float(m.group(3)) <= TOL_DEG
+        check(ok, "result %d: object %d within %.0f mm / %.0f deg: %s" % (seq, oid, TOL_MM, TOL_DEG,
+                                                                         m.group(0) if m else "not found"))
+    m = re.search(r"unmatched_estimates=(\d+)", ev.stdout)
+    check(m is not None and int(m.group(1)) == 0,
+          "result %d: no false positives (unmatched estimates: %s)" % (seq, m.group(1) if m else "?"))
+same = [r[2:] for r in rows if int(r[0]) == 0] == [r[2:] for r in rows if int(r[0]) == 1]
+check(same, "the same map gives the same poses (deterministic)")
+
+text = stop(d, log, 2)
+if failures:
+    print(text)
+
+# --- tracked poses: the same replay, poses by ICP tracking against the raycast model (from the first
+# frame's known pose), every frame pushed. Measured: tracking 0.4 mm from the truth at the last
+# frame; objects 1, 2, 4, 6 within 5 mm / 5 deg (box 3 is missed with the tracked map). Required:
+# no lost frame, those four objects, no false positive.
+d, log, info = start(["--set", "sensors.replay=" + RIG, "--set", "localize.still_period_s=1", "--set",
+                      "tracking.poses=tracked", "--set", "tracking.push_every_frame=true"], "edgefused_tracked.log")
+check("ready" in info, "edgefused started with tracking.poses=tracked")
+if "ready" in info:
+    port = int(info["tcp"].rsplit(":", 1)[1])
+    con = open_raw(info["console"])
+    listen = subprocess.Popen([EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "1",
+                               "--timeout-s", "150"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(0.5)
+    check(command(con, "scan start").endswith("OK\r\n"), "tracked: scan start")
+    try:
+        out, err = listen.communicate(timeout=200)
+    except subprocess.TimeoutExpired:
+        listen.kill()
+        out, err = listen.communicate()
+    rows = [l.split(",") for l in out.strip().splitlines() if l[:1].isdigit()]
+    check(listen.returncode == 0, "tracked: a result by the still-period trigger")
+    est = os.path.join(WORK, "poses_tracked.txt")
+    with open(est, "w") as f:
+        for k, r in enumerate(rows):
+            f.write("%d %s %s %s\n" % (k + 1, " ".join(r[3:10]), r[10], models.get(int(r[2]), "unknown")))
+    ev = subprocess.run([EDGEFUSE, "eval", "poses", est, os.path.join(RIG, "objects.txt")], capture_output=True,
+                        text=True)
+    print(ev.stdout.strip())
+    for oid in (1, 2, 4, 6):
+        m = re.search(r"^object %d \((\S+)\): est #\d+ score \S+\s+t_err (\S+) mm\s+r_err (\S+) deg" % oid, ev.stdout,
+                      re.M)
+        ok = m is not None and float(m.group(2)) <= TOL_MM and float(m.group(3)) <= TOL_DEG
+        check(ok, "tracked: object %d within %.0f mm / %.0f deg: %s" % (oid, TOL_MM, TOL_DEG,
+                                                                        m.group(0) if m else "not found"))
+    m = re.search(r"unmatched_estimates=(\d+)", ev.stdout)
+    check(m is not None and int(m.group(1)) == 0, "tracked: no false positives")
+    text = stop(d, log, 1)
+    m = re.search(r"tracking: (\d+) lost frames, last pose (\S+) mm from", text)
+    check(m is not None and int(m.group(1)) == 0 and float(m.group(2)) < 2.0,
+          "tracked: %s" % (m.group(0) if m else "no tracking line"))
+else:
+    d.kill()
+
+# --- the sim backend's own scene (no replay): bin_rig_a's objects as analytic solids, no models
+# configured, so localize reports model-free segments (id 0) at box centres of the visible parts.
+# Each object's position must have a segment within 30 mm horizontally (a segment's centre is that
+# of the part the xtion sees, not the model's origin: up to half an object's size off; measured up
+# to 17 mm for the lying cylinder, 80 mm long).
+truth = {}
+for line in open(os.path.join(RIG, "objects.txt")):
+    f = line.split()
+    if len(f) >= 8 and not line.startswith("#"):
+        truth[int(f[0])] = (float(f[1]), float(f[2]))
+d, log, info = start([], "edgefused_sim.log")
+check("ready" in info, "edgefused started on the sim backend (no replay)")
+if "ready" in info:
+    port = int(info["tcp"].rsplit(":", 1)[1])
+    con = open_raw(info["console"])
+    listen = subprocess.Popen([EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "1",
+                               "--timeout-s", "120"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(0.5)
+    check(command(con, "scan start").endswith("OK\r\n"), "sim: scan start")
+    frames = 0
+    end = time.monotonic() + 120
+    while time.monotonic() < end and frames < 30:
+        time.sleep(0.5)
+        m = re.search(r"frames (\d+)", command(con, "status"))
+        frames = int(m.group(1)) if m else frames
+    check(frames >= 30, "sim: %d frames integrated at the simulated rig's poses" % frames)
+    check(command(con, "localize").endswith("OK\r\n"), "sim: localize")
+    try:
+        out, err = listen.communicate(timeout=150)
+    except subprocess.TimeoutExpired:
+        listen.kill()
+        out, err = listen.communicate()
+    segs = [(float(r[3]), float(r[4])) for r in (l.split(",") for l in out.strip().splitlines() if l[:1].isdigit())
+            if r[2] == "0"]
+    print(out.strip())
+    check(listen.returncode == 0 and len(segs) > 0, "sim: %d segments received" % len(segs))
+    for oid, (x, y) in sorted(truth.items()):
+        dist = min((((sx - x) ** 2 + (sy - y) ** 2) ** 0.5 for sx, sy in segs), default=1.0)
+        check(dist <= 0.030, "sim: object %d has a segment %.1f mm away horizontally" % (oid, dist * 1e3))
+    text = stop(d, log, 1)
+else:
+    d.kill()
+    log.seek(0)
+    text = log.read()
+if failures:
+    print(text)
+    print("%d check(s) failed" % len(failures))
+    sys.exit(1)
+print("all checks passed")
