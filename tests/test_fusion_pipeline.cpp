@@ -71,12 +71,16 @@ void run_pipeline(bool tracked) {
   CHECK_FALSE(p->map_empty());
   edgefuse_test::alloc_count_start();
   CHECK_TRUE(step_frames(*p, 5));
+  const uint64_t still_since = p->stats().still_since_us;  // before localising: mapping pauses then
+  const uint64_t mapped_us = now_us();
   CHECK_TRUE(localize(*p, r));
   const long allocations = edgefuse_test::alloc_count();
   CHECK_EQUAL(0L, allocations);
 
   CHECK_EQUAL(int(edgefuse_link_TrackingState_TRACKING_OK), int(p->stats().tracking));
-  CHECK_EQUAL(0u, p->stats().still_since_us);  // the simulated rig sways on its circle
+  // The simulated rig sways on its circle at 2 pi 0.02 m / 8 s = 15.7 mm/s: it leaves the 1 mm
+  // still tolerance within 64 ms, so it is never still for long (at any frame rate).
+  CHECK_TRUE(still_since == 0 || mapped_us - still_since < 200000u);
   CHECK_EQUAL(int(edgefuse_link_ResultStatus_RESULT_OK), int(r.status));
   CHECK_TRUE(r.stamp_us > 0);
   CHECK_TRUE(r.objects_count >= 4);  // bin_rig_a's six objects as segments (some may merge)

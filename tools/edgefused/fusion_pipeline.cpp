@@ -32,8 +32,8 @@ hal::DepthFrameStorage<kPixels> g_frame;
 uint16_t g_filter_scratch[kPixels];
 uint16_t g_filtered[kPixels];
 
-// The rig counts as still when the pose moved less than this between frames: well below the
-// 1 cm / 1 degree push threshold of tracking, above the noise of a tracked pose.
+// The rig counts as still while its pose stays within this of the pose where the still period
+// began: well below the 1 cm / 1 degree push threshold of tracking, above the noise of a tracked pose.
 constexpr float kStillMoveM = 0.001f;
 constexpr float kStillRotDeg = 0.1f;
 
@@ -229,7 +229,7 @@ void FusionPipeline::stop_mapping() {
   if (camera_running_) devices_.camera(0).stop();
   camera_running_ = false;
   camera_state_ = "stopped";
-  have_last_pose_ = false;
+  have_still_anchor_ = false;
   stats_.fps = 0;
   stats_.still_since_us = 0;
   stats_.tracking = edgefuse_link_TrackingState_TRACKING_OFF;
@@ -328,18 +328,23 @@ void FusionPipeline::integrate_frame(uint64_t now_us) {
     }
     stats_.tracking = edgefuse_link_TrackingState_TRACKING_OK;
   }
-  // Still detection from the pose change since the previous frame.
-  if (have_last_pose_) {
-    const float moved_m = (T.t - last_pose_.t).norm();
-    const float cos_angle = std::clamp(0.5f * ((last_pose_.R.transpose() * T.R).trace() - 1.0f), -1.0f, 1.0f);
+  // Still detection against an anchor pose, not the previous frame: a slow motion moves little
+  // per frame when frames come fast, so a per-frame test would call a swaying rig still on an idle
+  // machine and moving on a loaded one. The anchor moves on when the rig leaves its tolerance.
+  if (have_still_anchor_) {
+    const float moved_m = (T.t - still_anchor_.t).norm();
+    const float cos_angle = std::clamp(0.5f * ((still_anchor_.R.transpose() * T.R).trace() - 1.0f), -1.0f, 1.0f);
     const float rot_deg = std::acos(cos_angle) * 57.29578f;
-    if (moved_m > kStillMoveM || rot_deg > kStillRotDeg)
+    if (moved_m > kStillMoveM || rot_deg > kStillRotDeg) {
       stats_.still_since_us = 0;
-    else if (stats_.still_since_us == 0)
+      still_anchor_ = T;
+    } else if (stats_.still_since_us == 0) {
       stats_.still_since_us = now_us;
+    }
+  } else {
+    have_still_anchor_ = true;
+    still_anchor_ = T;
   }
-  have_last_pose_ = true;
-  last_pose_ = T;
   if (!push) return;
 
   if (clear_pending_) centre_volume(f, T);

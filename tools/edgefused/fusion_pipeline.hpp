@@ -105,8 +105,8 @@ class FusionPipeline final : public runtime::Pipeline {
   uint32_t map_frames_ = 0;
   bool have_sequence_ = false;
   uint32_t last_sequence_ = 0;
-  bool have_last_pose_ = false;
-  Pose last_pose_;
+  bool have_still_anchor_ = false;
+  Pose still_anchor_;  //!< pose where the current still period began (still detection)
   uint64_t last_frame_us_ = 0;
   uint64_t last_capture_us_ = 0;
   Vec3f view_sum_ = Vec3f::Zero();
