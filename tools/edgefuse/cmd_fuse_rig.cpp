@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "args.hpp"
-#include "board_defaults.hpp"
 #include "commands.hpp"
 #include "core_setup.hpp"
+#include "fuse_options.hpp"
 #include "edgefuse/io/mesh_collector.hpp"
 #include "edgefuse/tsdf/colour_pass.hpp"
 #include "edgefuse/tsdf/extract.hpp"
@@ -61,25 +61,13 @@ int cmd_fuse_rig(int argc, char** argv) {
     return 2;
   }
   const BoardCapacities& board = build_board();
-  BoardDefaults defaults;
-  if (!read_board_defaults(board.name, defaults, err)) return fail(err);
   FuseSettings settings;
-  settings.voxel_m = defaults.voxel_m;
-  settings.trunc_m = defaults.trunc_m;
-  settings.max_weight = defaults.max_weight;
-  settings.threads = defaults.threads;
-  settings.dim = board.volume_dim;
-  int frames_max = 1 << 30;
+  if (!board_fuse_settings(settings, err)) return fail(err);
+  int frames_max = 0;
   Pose guess;
-  if (!args.get_float("voxel", 1e-4f, 1.0f, settings.voxel_m, err) ||
-      !args.get_float("trunc", 1e-4f, 10.0f, settings.trunc_m, err) ||
-      !args.get_int("volume", 8, board.volume_dim, settings.dim, err) ||
-      !args.get_int("threads", 1, 64, settings.threads, err) || !args.get_int("frames", 1, 1 << 30, frames_max, err) ||
-      !args.get_vec3("origin", settings.origin_m, err) ||
+  if (!apply_fuse_options(args, settings, frames_max, err) ||
       (args.has("guess") && !parse_guess(args.get("guess"), guess, err)))
     return fail(err, 2);
-  if (!args.has("trunc") && args.has("voxel")) settings.trunc_m = 4.0f * settings.voxel_m;
-  settings.origin_given = args.has("origin");
   if (settings.dim % kBrickSide != 0) return fail("--volume must be a multiple of 8", 2);
   if (settings.trunc_m < settings.voxel_m) return fail("--trunc must be at least one voxel", 2);
   const bool use_trust = !args.has("no-trust"), paint = !args.has("no-paint"), filter = !args.has("no-filter");

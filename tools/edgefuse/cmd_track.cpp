@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "args.hpp"
-#include "board_defaults.hpp"
 #include "commands.hpp"
 #include "core_setup.hpp"
+#include "fuse_options.hpp"
 #include "edgefuse/filters/depth_filter_chain.hpp"
 #include "edgefuse/io/dataset.hpp"
 #include "edgefuse/io/trajectory.hpp"
@@ -95,23 +95,13 @@ int cmd_track(int argc, char** argv) {
     return 2;
   }
   const BoardCapacities& board = build_board();
-  BoardDefaults defaults;
-  if (!read_board_defaults(board.name, defaults, err)) return fail(err);
   FuseSettings settings;
-  settings.voxel_m = defaults.voxel_m;
-  settings.trunc_m = defaults.trunc_m;
-  settings.max_weight = defaults.max_weight;
-  settings.threads = defaults.threads;
-  settings.dim = board.volume_dim;
-  int frames_max = 1 << 30;
-  if (!args.get_float("voxel", 1e-4f, 1.0f, settings.voxel_m, err) ||
-      !args.get_float("trunc", 1e-4f, 10.0f, settings.trunc_m, err) ||
-      !args.get_int("volume", 8, board.volume_dim, settings.dim, err) ||
-      !args.get_int("threads", 1, 64, settings.threads, err) || !args.get_int("frames", 1, 1 << 30, frames_max, err)) {
+  if (!board_fuse_settings(settings, err)) return fail(err);
+  int frames_max = 0;
+  if (!apply_fuse_options(args, settings, frames_max, err)) {  // no --origin: centred on the first view
     std::fprintf(stderr, "edgefuse track: %s\n", err.c_str());
     return 2;
   }
-  if (!args.has("trunc") && args.has("voxel")) settings.trunc_m = 4.0f * settings.voxel_m;
   if (settings.dim % kBrickSide != 0) {
     std::fprintf(stderr, "edgefuse track: --volume must be a multiple of %d, got %d\n", kBrickSide, settings.dim);
     return 2;
