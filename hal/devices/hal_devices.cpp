@@ -124,6 +124,7 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
         if (c.width) oc->width = c.width;
         if (c.height) oc->height = c.height;
         if (c.fps) oc->fps = c.fps;
+        oc->playback_loop = replay_loop;  // an .oni uri loops like a replay folder
         if (c.has_intrinsics) {
           oc->intr.fx = float(c.fx);
           oc->intr.fy = float(c.fy);

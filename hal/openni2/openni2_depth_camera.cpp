@@ -38,6 +38,17 @@ openni::PixelFormat to_oni(Openni2DepthFormat f) {
 
 }  // namespace
 
+const char* to_string(Openni2ColourState s) {
+  switch (s) {
+    case Openni2ColourState::kNotRequested: return "not requested";
+    case Openni2ColourState::kNoColourSensor: return "no colour sensor";
+    case Openni2ColourState::kRegistrationUnsupported: return "registration to depth unsupported";
+    case Openni2ColourState::kRegistrationFailed: return "registration to depth failed";
+    case Openni2ColourState::kRegistered: return "registered to depth";
+  }
+  return "unknown";
+}
+
 struct Openni2DepthCamera::Impl {
   bool initialised = false;
   openni::Device device;
@@ -87,6 +98,25 @@ HalStatus Openni2DepthCamera::start(int mode_index) {
   if (d.device.open(uri) != openni::STATUS_OK) return fail(HalStatus::kNoDevice, "open");
   if (d.depth.create(d.device, openni::SENSOR_DEPTH) != openni::STATUS_OK)
     return fail(HalStatus::kIoError, "create depth stream");
+  recorded_frames_ = 0;
+  ended_ = false;
+  if (d.device.isFile()) {
+    openni::PlaybackControl* pc = d.device.getPlaybackControl();
+    if (!pc) return fail(HalStatus::kIoError, "no playback control for the recording");
+    // Manual speed (-1): each wait hands over the next frame, so "as fast as possible" drops none
+    // (speed 0 would race ahead and keep only the newest frame).
+    if (pc->setSpeed(config_.playback_fast ? -1.0f : 1.0f) != openni::STATUS_OK ||
+        pc->setRepeatEnabled(config_.playback_loop) != openni::STATUS_OK)
+      return fail(HalStatus::kIoError, "set playback speed/repeat");
+    recorded_frames_ = pc->getNumberOfFrames(d.depth);
+    if (recorded_frames_ <= 0) return fail(HalStatus::kBadFrame, "recording holds no depth frames");
+    OniCropping crop;  // OpenNI2 2.2's player drops every frame of a stream without it
+    int crop_size = sizeof(crop);
+    if (d.depth.getProperty(openni::STREAM_PROPERTY_CROPPING, &crop, &crop_size) != openni::STATUS_OK)
+      return fail(HalStatus::kBadFrame,
+                  "recording has no cropping property (recorded from a device without cropping, e.g. "
+                  "Dummy); OpenNI2 2.2's player would drop every frame of it");
+  }
   // Find the requested mode among the sensor's; set it only when it differs from the current one
   // (the Dummy device and .oni playback refuse setVideoMode).
   const openni::Array<openni::VideoMode>& modes = d.depth.getSensorInfo().getSupportedVideoModes();
@@ -115,15 +145,26 @@ HalStatus Openni2DepthCamera::start(int mode_index) {
   // Colour registered to depth: only when the device can register (else colour is not delivered,
   // since unregistered colour would paint the wrong voxels).
   colour_registered_ = false;
-  if (config_.colour && d.device.hasSensor(openni::SENSOR_COLOR) &&
-      d.device.isImageRegistrationModeSupported(openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR)) {
+  const Openni2ColourState before = colour_state_;
+  if (!config_.colour) {
+    colour_state_ = Openni2ColourState::kNotRequested;
+  } else if (!d.device.hasSensor(openni::SENSOR_COLOR)) {
+    colour_state_ = Openni2ColourState::kNoColourSensor;
+  } else if (!d.device.isImageRegistrationModeSupported(openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR)) {
+    colour_state_ = Openni2ColourState::kRegistrationUnsupported;
+  } else {
     if (d.colour.create(d.device, openni::SENSOR_COLOR) == openni::STATUS_OK &&
         d.device.setImageRegistrationMode(openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR) == openni::STATUS_OK) {
       d.device.setDepthColorSyncEnabled(true);
       d.has_colour = d.colour.start() == openni::STATUS_OK;
       colour_registered_ = d.has_colour;
     }
+    colour_state_ = colour_registered_ ? Openni2ColourState::kRegistered : Openni2ColourState::kRegistrationFailed;
   }
+  // Say once (not at every reopen) why colour that was asked for is not delivered.
+  if (config_.colour && !colour_registered_ && colour_state_ != before)
+    std::fprintf(stderr, "openni2 '%s' (%s): colour requested but not delivered: %s; depth only\n", config_.uri,
+                 config_.name, to_string(colour_state_));
   // Intrinsics: the board's, else from the reported field of view (centred principal point).
   intr_ = config_.intr;
   intr_.width = config_.width;
@@ -142,7 +183,10 @@ HalStatus Openni2DepthCamera::start(int mode_index) {
   }
   if (d.depth.start() != openni::STATUS_OK) return fail(HalStatus::kIoError, "start depth stream");
   running_ = true;
+  frame_since_start_ = false;
   have_offset_ = false;
+  have_dev_ = false;
+  period_us_ = 1000000 / (config_.fps > 0 ? config_.fps : 30);
   return HalStatus::kOk;
 }
 
@@ -150,14 +194,24 @@ void Openni2DepthCamera::stop() {
   if (!impl_ || !impl_->initialised) return;
   Impl& d = *impl_;
   const bool was_streaming = d.depth.isValid();
+  const bool dummy = config_.uri && std::strcmp(config_.uri, "Dummy") == 0;
+  // The Dummy's frame thread sets its own "running" flag when it first runs: a stop() before
+  // that is overwritten and the thread never ends. One frame proves it is running.
+  if (dummy && was_streaming && !frame_since_start_) {
+    openni::VideoStream* streams[] = {&d.depth};
+    int ready = -1;
+    if (openni::OpenNI::waitForAnyStream(streams, 1, &ready, 2000) == openni::STATUS_OK)
+      d.depth.readFrame(&d.depth_frame);
+  }
   d.depth_frame.release();
   d.colour_frame.release();
   if (d.has_colour) d.colour.stop();
   if (d.depth.isValid()) d.depth.stop();
   // OpenNI2's Dummy driver does not join its frame thread on stop(): destroying the stream while
-  // that thread sleeps its 33 ms frame period crashes. Two periods are enough (and harmless for
-  // real devices, whose stop() joins).
-  if (was_streaming) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  // that thread sleeps its 33 ms frame period crashes. Two periods are enough on an idle machine;
+  // the Dummy gets nine (a loaded 2-core host deschedules the thread for longer). Real devices
+  // and recordings join their threads; the short wait is harmless there.
+  if (was_streaming) std::this_thread::sleep_for(std::chrono::milliseconds(dummy ? 300 : 100));
   if (d.colour.isValid()) d.colour.destroy();
   if (d.depth.isValid()) d.depth.destroy();
   d.has_colour = false;
@@ -171,6 +225,7 @@ HalStatus Openni2DepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms)
   if (!running_) return HalStatus::kNotStarted;
   if (!frame.fits(config_.width, config_.height)) return HalStatus::kInvalidArgument;
   Impl& d = *impl_;
+  if (ended_) return HalStatus::kEndOfStream;
   openni::VideoStream* streams[] = {&d.depth};
   int ready = -1;
   const openni::Status w = openni::OpenNI::waitForAnyStream(streams, 1, &ready, int(timeout_ms));
@@ -184,6 +239,7 @@ HalStatus Openni2DepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms)
                   openni::OpenNI::getExtendedError());
     return HalStatus::kIoError;
   }
+  frame_since_start_ = true;
   const openni::VideoFrameRef& f = d.depth_frame;
   const openni::PixelFormat pf = f.getVideoMode().getPixelFormat();
   if (f.getWidth() != config_.width || f.getHeight() != config_.height ||
@@ -202,17 +258,28 @@ HalStatus Openni2DepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms)
   frame.depth_scale = pf == openni::PIXEL_FORMAT_DEPTH_100_UM ? 10000.0f : 1000.0f;
   frame.has_amplitude = false;
   frame.sequence = uint32_t(f.getFrameIndex());
-  // Device microseconds -> HAL clock.
+  // Device microseconds -> HAL clock. A live device is re-synchronised when it drifts; a recording
+  // keeps its recorded spacing (played fast, its stamps run ahead of the clock, as replay's do).
   const uint64_t now = clock_.now_us();
   const int64_t dev = int64_t(f.getTimestamp());
-  if (!have_offset_ || std::llabs(int64_t(now) - (dev + offset_us_)) > 100000) {
+  if (!have_offset_ || (recorded_frames_ == 0 && std::llabs(int64_t(now) - (dev + offset_us_)) > 100000)) {
     offset_us_ = int64_t(now) - dev;
     have_offset_ = true;
   }
+  if (recorded_frames_ > 0 && dev + offset_us_ <= int64_t(last_stamp_us_)) {
+    // A recording played again (loop or reopen) after its fast playback ran ahead of the clock:
+    // continue one recorded frame period after the last stamp.
+    offset_us_ = int64_t(last_stamp_us_) + period_us_ - dev;
+  }
+  if (recorded_frames_ > 0 && have_dev_ && dev > last_dev_us_) period_us_ = dev - last_dev_us_;
+  last_dev_us_ = dev;
+  have_dev_ = true;
   uint64_t stamp = uint64_t(dev + offset_us_);
   if (stamp <= last_stamp_us_) stamp = last_stamp_us_ + 1;
   frame.stamp_us = stamp;
   last_stamp_us_ = stamp;
+  // The last recorded frame: the next call reports the end instead of waiting for nothing.
+  if (recorded_frames_ > 0 && !config_.playback_loop && f.getFrameIndex() >= recorded_frames_) ended_ = true;
   // Newest colour frame, if one is ready (registered: same size as depth).
   frame.has_colour = false;
   if (d.has_colour && frame.colour) {

@@ -2,6 +2,13 @@
 // formats, optional colour registered to depth by the device, a device URI ("" = any device,
 // "Dummy" = OpenNI2's built-in test device, or a path to an .oni recording).
 //
+// .oni playback: at the recorded rate, or as fast as processing asks (OpenNI2's "manual" speed:
+// each wait hands over the next recorded frame, none dropped); the end of the recording is
+// kEndOfStream as soon as the last recorded frame was delivered (or it loops). Debian's OpenNI2 2.2
+// player silently drops every frame of a recorded stream that has no cropping property (its
+// PlayerStream needs one; a PrimeSense device records it, the Dummy device does not), so such a
+// recording is refused at start() with an error saying so instead of timing out forever.
+//
 // OpenNI2 allocates inside the library for every frame (its frame pool and the driver's); this
 // backend copies each frame into the caller's static buffer and allocates nothing itself.
 // Device time stamps (microseconds on the device clock) are mapped to the HAL clock by the offset
@@ -18,6 +25,18 @@ namespace edgefuse::hal {
 
 enum class Openni2DepthFormat : uint8_t { k1mm, k100um };
 
+//! What became of colour at the last start(): the backend only delivers colour the device has
+//! registered to depth (unregistered colour would paint the wrong voxels), and says why not.
+enum class Openni2ColourState : uint8_t {
+  kNotRequested,            //!< config.colour = false
+  kNoColourSensor,          //!< the device has no colour sensor
+  kRegistrationUnsupported, //!< IMAGE_REGISTRATION_DEPTH_TO_COLOR not supported (Dummy, recordings)
+  kRegistrationFailed,      //!< supported, but creating/registering/starting the colour stream failed
+  kRegistered,              //!< colour frames are registered to depth and delivered
+};
+//! \param s state  \return short stable text for logs and the status line
+const char* to_string(Openni2ColourState s);
+
 struct Openni2CameraConfig {
   const char* name = "xtion";  //!< board device name
   const char* uri = "";        //!< "" any device, "Dummy", or an .oni file path
@@ -27,6 +46,8 @@ struct Openni2CameraConfig {
   Openni2DepthFormat format = Openni2DepthFormat::k1mm;
   bool colour = true;          //!< also stream RGB888 registered to depth (when the device has colour)
   PinholeIntrinsics intr;      //!< used when the device reports no field of view (fx = 0: derive from FOV)
+  bool playback_fast = false;  //!< .oni: every recorded frame as soon as asked, else at the recorded rate
+  bool playback_loop = false;  //!< .oni: start again after the last frame, else kEndOfStream
 };
 
 class Openni2DepthCamera final : public DepthCamera {
@@ -49,6 +70,13 @@ class Openni2DepthCamera final : public DepthCamera {
   const char* last_error() const { return error_; }
   //! Whether colour frames are registered to depth by the device.
   bool colour_registered() const { return colour_registered_; }
+  //! Why colour is or is not delivered (set by start(); also logged once to stderr when colour
+  //! was requested but cannot be delivered).
+  Openni2ColourState colour_state() const { return colour_state_; }
+  //! Whether the open device is an .oni recording.
+  bool is_recording() const { return recorded_frames_ > 0; }
+  //! Depth frames in the open recording (0: a live device).
+  int recorded_frames() const { return recorded_frames_; }
 
  private:
   struct Impl;
@@ -60,6 +88,13 @@ class Openni2DepthCamera final : public DepthCamera {
   PinholeIntrinsics intr_;
   bool running_ = false;
   bool colour_registered_ = false;
+  Openni2ColourState colour_state_ = Openni2ColourState::kNotRequested;
+  int recorded_frames_ = 0;     // > 0: playing an .oni file with that many depth frames
+  bool frame_since_start_ = false;  // a frame was read since start() (Dummy stop race)
+  bool ended_ = false;          // the last recorded frame was delivered (no loop)
+  bool have_dev_ = false;       // recording: last_dev_us_ holds the previous frame's device stamp
+  int64_t last_dev_us_ = 0;
+  int64_t period_us_ = 33333;   // recording: last device stamp spacing (continues a loop)
   bool have_offset_ = false;
   int64_t offset_us_ = 0;  // HAL clock - device clock
   uint64_t last_stamp_us_ = 0;
