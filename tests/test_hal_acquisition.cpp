@@ -9,7 +9,9 @@
 
 #include "alloc_counter.hpp"
 #include "hal/acquisition/camera_worker.hpp"
+#include "edgefuse/memory/arena.hpp"
 #include "hal/acquisition/frame_pairer.hpp"
+#include "hal/acquisition/frame_pool.hpp"
 #include "hal/acquisition/hotplug_watcher.hpp"
 #include "hal/acquisition/scanner_worker.hpp"
 #include "hal/posix/monotonic_clock.hpp"
@@ -372,4 +374,40 @@ TEST(HalAcquisition, LineScannerThreadDeliversOneProfilePerEdgeAndToleratesPause
   CHECK_EQUAL(25, profiles);
   CHECK(ordered);
   CHECK_EQUAL(0u, cnt.dropped_overrun.load());
+}
+
+TEST(HalAcquisition, FramePoolsLiveInTheBoardMemoryMap) {
+  // The device thread fills frames that lie in the memory map's acquisition pool regions.
+  CoreBuffers buf;
+  CHECK(carve_memory(build_board(), static_arena(), static_arena_bytes(), buf) == Status::kOk);
+  CHECK_EQUAL(build_board().sensors_max, buf.frame_pools.pools);
+  static FramePoolViews views[2];
+  FrameChannel ch;
+  AcquisitionCounters cnt;
+  CHECK_FALSE(bind_frame_pool(buf.frame_pools, buf.frame_pools.pools, views[1], ch, cnt));  // no such pool
+  CHECK(bind_frame_pool(buf.frame_pools, buf.frame_pools.pools - 1, views[0], ch, cnt));
+  MonotonicClock& clock = monotonic_clock();
+  SimDepthCameraConfig cfg = sim_tof_config();
+  cfg.fps = 50;
+  SimDepthCamera sim(cfg, scene, clock);
+  CameraWorker worker(sim, ch, cnt, clock);
+  CHECK(worker.start(fast_config()));
+  const uintptr_t lo = reinterpret_cast<uintptr_t>(buf.frame_pools.depth);
+  const uintptr_t hi = lo + make_memory_map(build_board()).regions[int(Region::kAcqDepth)].bytes;
+  int checked = 0;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (checked < 5 && std::chrono::steady_clock::now() < end) {
+    if (const DepthFrame* f = ch.acquire_newest()) {
+      const uintptr_t a = reinterpret_cast<uintptr_t>(f->depth);
+      CHECK(a >= lo && a + f->pixel_count() * sizeof(uint16_t) <= hi);
+      std::size_t valid = 0;
+      for (std::size_t k = 0; k < f->pixel_count(); ++k) valid += f->depth[k] != 0;
+      CHECK(valid > 0);  // a real image came through the pool (all-invalid frames are rejected)
+      ++checked;
+      ch.release(f);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  worker.stop();
+  CHECK_EQUAL(5, checked);
 }

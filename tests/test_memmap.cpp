@@ -52,3 +52,27 @@ TEST(MemMap, CarvedRegionsAreAlignedAndDisjoint) {
         reinterpret_cast<uintptr_t>(buf.voxels.tsdf) + make_memory_map(build_board()).regions[0].bytes);
   CHECK(carve_memory(build_board(), static_arena(), 1024, buf) == Status::kCapacityExceeded);
 }
+
+TEST(MemMap, AcquisitionFramePoolsAreRegionsSizedByTheBoard) {
+  for (int i = 0; i < board_count(); ++i) {
+    const BoardCapacities& b = board_at(i);
+    const MemoryMap m = make_memory_map(b);
+    const uint64_t pooled = uint64_t(b.image_width_max) * b.image_height_max * b.sensors_max * kFramePoolSlots;
+    CHECK_EQUAL(pooled * 2, m.regions[int(Region::kAcqDepth)].bytes);
+    CHECK_EQUAL(pooled * 3, m.regions[int(Region::kAcqColour)].bytes);
+    CHECK_EQUAL(pooled * 2, m.regions[int(Region::kAcqAmplitude)].bytes);
+    STRCMP_CONTAINS("acquisition pools", m.regions[int(Region::kAcqDepth)].name);
+  }
+  CoreBuffers buf;
+  CHECK(carve_memory(build_board(), static_arena(), static_arena_bytes(), buf) == Status::kOk);
+  CHECK_EQUAL(build_board().sensors_max, buf.frame_pools.pools);
+  CHECK_EQUAL(kFramePoolSlots, buf.frame_pools.slots);
+  const uintptr_t lo = reinterpret_cast<uintptr_t>(static_arena());
+  const uintptr_t hi = lo + static_arena_bytes();
+  const void* ptrs[] = {buf.frame_pools.depth, buf.frame_pools.colour, buf.frame_pools.amplitude};
+  for (const void* p : ptrs) {
+    const uintptr_t a = reinterpret_cast<uintptr_t>(p);
+    CHECK(a >= lo && a < hi);
+    CHECK_EQUAL(0u, a % kRegionAlign);
+  }
+}

@@ -63,6 +63,13 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   l.scene_points_max = c.scene_points_max;
   l.hypotheses_max = c.hypotheses_max;
   l.objects_max = c.objects_max;
+  // acquisition frame pools (HAL, issue 6)
+  out.frame_pools.depth = static_cast<uint16_t*>(at(Region::kAcqDepth));
+  out.frame_pools.colour = static_cast<Rgb8*>(at(Region::kAcqColour));
+  out.frame_pools.amplitude = static_cast<uint16_t*>(at(Region::kAcqAmplitude));
+  out.frame_pools.pixels_per_slot = std::size_t(c.image_width_max) * std::size_t(c.image_height_max);
+  out.frame_pools.slots = kFramePoolSlots;
+  out.frame_pools.pools = c.sensors_max;
   out.pyramid_points_per_sensor = pyramid_pixels(c.image_width_max, c.image_height_max);
   out.icp_row_bytes_per_sensor = std::size_t(c.image_height_max) * kIcpRowBytes;
   out.pixels_per_sensor = std::size_t(c.image_width_max) * std::size_t(c.image_height_max);

@@ -18,6 +18,7 @@
 #include "edgefuse/memory/arena.hpp"
 #include "hal/acquisition/camera_worker.hpp"
 #include "hal/acquisition/frame_pairer.hpp"
+#include "hal/acquisition/frame_pool.hpp"
 #include "hal/acquisition/scanner_worker.hpp"
 #include "hal/devices/hal_devices.hpp"
 #include "hal/posix/monotonic_clock.hpp"
@@ -26,10 +27,9 @@ namespace edgefuse::cli {
 
 namespace {
 constexpr int kMaxCameras = 3;
-constexpr int kPixels = kBuildBoard.image_width_max * kBuildBoard.image_height_max;
-// Static frame pools (the build board's largest image), 6 slots per camera: the pairer may hold
-// three frames of a stream.
-hal::FrameChannelStorage<kPixels, 6> g_pools[kMaxCameras];
+// Frame pools: the memory map's "acquisition pools" regions (one pool of kFramePoolSlots frames
+// of the build board's largest image per sensor); only the small frame views live here.
+hal::FramePoolViews g_pool_views[kMaxCameras];
 hal::AcquisitionCounters g_counters[kMaxCameras];
 hal::FrameChannel g_channels[kMaxCameras];
 // The line scanner's profiles (up to 1024 beams), 15 slots drained every 2 ms: every profile is kept.
@@ -72,16 +72,30 @@ int cmd_acquire(int argc, char** argv) {
     std::fprintf(stderr, "edgefuse acquire: %s: %s\n", path.c_str(), err.c_str());
     return 1;
   }
-  const int n = devices.camera_count() < kMaxCameras ? devices.camera_count() : kMaxCameras;
+  CoreBuffers buffers;  // the static arena, carved once (only its frame pools are used here)
+  if (carve_memory(build_board(), static_arena(), static_arena_bytes(), buffers) != Status::kOk) {
+    std::fprintf(stderr, "edgefuse acquire: the static arena does not hold board %s's memory map\n",
+                 build_board().name);
+    return 1;
+  }
+  const int pools = buffers.frame_pools.pools < kMaxCameras ? buffers.frame_pools.pools : kMaxCameras;
+  const int n = devices.camera_count() < pools ? devices.camera_count() : pools;
   if (n == 0) {
     std::fprintf(stderr, "edgefuse acquire: %s lists no [[camera]]\n", path.c_str());
     return 1;
   }
-  std::printf("board %s: %d camera(s), backends built: %s, frame pools %d x %d px x 6 slots\n", board.c_str(), n,
-              hal::HalDevices::built_backends(), kBuildBoard.image_width_max, kBuildBoard.image_height_max);
+  if (devices.camera_count() > n)
+    std::fprintf(stderr, "edgefuse acquire: %s lists %d cameras; the first %d have frame pools (sensors_max)\n",
+                 path.c_str(), devices.camera_count(), n);
+  std::printf("board %s: %d camera(s), backends built: %s, frame pools %d x %d px x %d slots (memory map)\n",
+              board.c_str(), n, hal::HalDevices::built_backends(), kBuildBoard.image_width_max,
+              kBuildBoard.image_height_max, kFramePoolSlots);
   std::unique_ptr<hal::CameraWorker> workers[kMaxCameras];
   for (int i = 0; i < n; ++i) {
-    g_pools[i].bind(g_channels[i], g_counters[i]);
+    if (!hal::bind_frame_pool(buffers.frame_pools, i, g_pool_views[i], g_channels[i], g_counters[i])) {
+      std::fprintf(stderr, "edgefuse acquire: no frame pool %d in the memory map\n", i);
+      return 1;
+    }
     workers[i].reset(new hal::CameraWorker(devices.camera(i), g_channels[i], g_counters[i], clock, &devices.monitor()));
     hal::CameraWorkerConfig wc;
     if (!workers[i]->start(wc)) {

@@ -61,6 +61,11 @@ enum class Region : int {
   kLocResults,      //!< the pose list
   // raycast speed work (perf2)
   kBlockMasks,      //!< per brick: which of its 64 blocks of 2^3 voxels hold a distance < +1
+  // acquisition frame pools (HAL, issue 6): kFramePoolSlots frames per sensor, filled by the
+  // device threads and handed to processing (hal/acquisition/frame_pool.hpp)
+  kAcqDepth,        //!< pooled depth (uint16)
+  kAcqColour,       //!< pooled registered colour
+  kAcqAmplitude,    //!< pooled ToF amplitude (uint16)
   kCount
 };
 
@@ -75,6 +80,9 @@ struct MemoryMap {
 };
 
 inline constexpr std::size_t kRegionAlign = 64;  //!< every region starts on a cache line
+//! Frames in each sensor's acquisition pool: the device fills one, a stereo pairer holds up to
+//! three of a stream, processing one more, and one is in flight (hal/acquisition).
+inline constexpr int kFramePoolSlots = 6;
 
 constexpr uint64_t align_up(uint64_t v, uint64_t a) { return (v + a - 1) / a * a; }
 
@@ -131,11 +139,27 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kLocVerified, "loc verified hypotheses", mm * kClustersPerModel * sizeof(LocalizedObject));
   set(Region::kLocResults, "loc pose list", uint64_t(c.objects_max) * sizeof(LocalizedObject));
   set(Region::kBlockMasks, "brick block masks", bricks * sizeof(uint64_t));  // raycast speed work (perf2)
+  // acquisition frame pools (HAL, issue 6)
+  const uint64_t pooled = pixels * uint64_t(kFramePoolSlots);
+  set(Region::kAcqDepth, "acquisition pools: depth", pooled * sizeof(uint16_t));
+  set(Region::kAcqColour, "acquisition pools: colour", pooled * sizeof(Rgb8));
+  set(Region::kAcqAmplitude, "acquisition pools: amplitude", pooled * sizeof(uint16_t));
   uint64_t total = 0;
   for (const MemoryRegion& r : m.regions) total += align_up(r.bytes, kRegionAlign);
   m.total_bytes = total;
   return m;
 }
+
+//! The acquisition frame pools (HAL, issue 6): `pools` pools (one per sensor) of `slots` frames
+//! of up to `pixels_per_slot` pixels each, slot after slot, pool after pool.
+struct FramePoolBuffers {
+  uint16_t* depth = nullptr;
+  Rgb8* colour = nullptr;
+  uint16_t* amplitude = nullptr;
+  std::size_t pixels_per_slot = 0;
+  int slots = 0;
+  int pools = 0;
+};
 
 //! Views of every region of one board's arena, carved once at start-up.
 struct CoreBuffers {
@@ -157,6 +181,7 @@ struct CoreBuffers {
   void* icp_rows = nullptr;           //!< IcpSums of either build, kIcpRowBytes per row
   uint8_t* trust_maps = nullptr;      //!< sensors_max trust maps of image_*_max (multi-sensor fusion)
   LocalizeBuffers localize;           //!< localisation tables (issue 5)
+  FramePoolBuffers frame_pools;       //!< acquisition frame pools (HAL, issue 6)
   std::size_t pixels_per_sensor = 0;  //!< stride between the sensors' images in each region
   std::size_t tiles_per_sensor = 0;   //!< stride between the sensors' tile arrays
   std::size_t pyramid_points_per_sensor = 0;  //!< points of one sensor's pyramid map (all levels)
