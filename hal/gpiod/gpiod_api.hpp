@@ -1,9 +1,10 @@
 // The library boundary of the gpiod backend: the few libgpiod operations it needs, in terms that
 // both libgpiod 1.6 (Debian bookworm: chip/line objects, gpiod_line_event_wait/read, timespec
 // stamps, no debounce) and libgpiod 2 (request/settings objects, edge-event buffers, ns stamps,
-// kernel debounce) can provide. gpiod_api_v1.cpp implements it with libgpiod 1.6; the libgpiod 2
-// differences belong in a gpiod_api_v2.cpp behind this same interface and nowhere else. A fake
-// (fake_gpiod_api.hpp) lets the trigger logic be tested on any host.
+// kernel debounce) can provide. gpiod_api_v1.cpp implements it with libgpiod 1.6,
+// gpiod_api_v2.cpp with libgpiod 2.x; hal/CMakeLists.txt links the one matching the found
+// library's major version, and no other file includes gpiod.h. A fake (fake_gpiod_api.hpp) lets
+// the trigger logic be tested on any host.
 #pragma once
 
 #include <cstdint>
