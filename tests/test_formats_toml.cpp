@@ -207,10 +207,10 @@ TEST(FormatsToml, RigBadValuesNameFileSensorAndKey) {
       {"kind = \"line_scanner\"", "kind = \"lidar\"", "kind must be \"pinhole\" or \"line_scanner\", got \"lidar\""},
       {"name = \"laser\"", "name = \"cam\"", "sensor name 'cam' is used twice"},
       {"name = \"laser\"", "name = \"../up\"", "must be a plain folder name"},
-      {"name = \"laser\"", "", "sensor #2 (line 17): missing key 'name'"},
+      {"name = \"laser\"", "", "[[sensor]] #2 (line 17): missing key 'name'"},
       {"color = true", "color = 1", "key 'color' (line 14) must be true or false, got an integer"},
       {"depth_scale = 5000.0", "", "sensor 'cam' (line 2): missing key 'depth_scale'"},
-      {"id = 1", "id = -1", "object #1 (line 25): key 'id' (line 26) must be in 0..2147483647, got -1"},
+      {"id = 1", "id = -1", "[[object]] #1 (line 25): key 'id' (line 26) must be in 0..2147483647, got -1"},
       {"model = \"models/can.ply\"", "model = \"/abs/can.ply\"", "model must be a path relative"},
       {"model = \"models/can.ply\"", "model = 5", "key 'model' (line 27) must be a string"},
   };

@@ -72,7 +72,7 @@ TEST(HalBoard, BadFilesAreRefusedWithTheirReason) {
                   error_of("[[pin]]\nname = \"p\"\nchip = \"gpiochip0\"\noffset = 3\ndirection = \"output\"\n"
                            "[[line_scanner]]\nname = \"l\"\nbackend = \"sim\"\ntrigger_pin = \"p\"\n")
                       .c_str());
-  STRCMP_CONTAINS("[[pin]] 1 (line 1)", error_of("[[pin]]\nname = \"p\"\nchip = \"c\"\noffset = -1\ndirection = \"input\"\n").c_str());
+  STRCMP_CONTAINS("[[pin]] #1 (line 1)", error_of("[[pin]]\nname = \"p\"\nchip = \"c\"\noffset = -1\ndirection = \"input\"\n").c_str());
   STRCMP_CONTAINS("camera name 'x' is used twice",
                   error_of("[[camera]]\nname = \"x\"\nbackend = \"sim\"\n[[camera]]\nname = \"x\"\nbackend = \"sim\"\n").c_str());
   STRCMP_CONTAINS("TOML syntax error", error_of("[[camera]\n").c_str());

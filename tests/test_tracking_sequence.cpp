@@ -9,6 +9,7 @@
 
 #include "alloc_counter.hpp"
 #include "test_tracking_rig.hpp"
+#include "pool_row_runner.hpp"
 #include "worker_pool.hpp"
 #include "test_support.hpp"
 
@@ -18,32 +19,6 @@ using namespace edgefuse_test;
 namespace {
 
 RigBuffers<float> g_buf;
-
-// Rows handed out in chunks by an atomic counter over a worker pool, as the tools do.
-struct PoolRunner {
-  WorkerPool pool;
-  struct Job {
-    void (*rows)(void*, int, int);
-    void* job;
-    int count;
-    std::atomic<int> next{0};
-  };
-  static void worker(void* p, int, int) {
-    Job* j = static_cast<Job*>(p);
-    for (;;) {
-      const int b = j->next.fetch_add(3);
-      if (b >= j->count) return;
-      j->rows(j->job, b, b + 3 < j->count ? b + 3 : j->count);
-    }
-  }
-  static void run(void* self, void (*rows)(void*, int, int), void* job, int count) {
-    Job j;
-    j.rows = rows;
-    j.job = job;
-    j.count = count;
-    static_cast<PoolRunner*>(self)->pool.run(&worker, &j);
-  }
-};
 
 struct SequenceRun {
   std::vector<Pose> poses;
@@ -120,13 +95,11 @@ TEST(TrackingSequence, KnownMotionIsTrackedWithinAMillimetreAndATenthOfADegree) 
 TEST(TrackingSequence, ThreadsDoNotChangeTheResult) {
   const std::vector<Pose> truth = known_motion(4);
   const SequenceRun serial = track_sequence(truth, nullptr);
-  PoolRunner pool;
-  pool.pool.start(3);
-  RowRunner runner;
-  runner.run = &PoolRunner::run;
-  runner.self = &pool;
-  const SequenceRun threaded = track_sequence(truth, &runner);
-  pool.pool.stop();
+  WorkerPool pool;  // rows in chunks over three threads, as the tools run them (hal/os)
+  pool.start(3);
+  PoolRowRunner rows(pool, 3);
+  const SequenceRun threaded = track_sequence(truth, rows.runner());
+  pool.stop();
   for (std::size_t i = 0; i < truth.size(); ++i) {
     CHECK(serial.poses[i].R == threaded.poses[i].R);
     CHECK(serial.poses[i].t == threaded.poses[i].t);

@@ -19,6 +19,7 @@
 #include "edgefuse/io/trajectory.hpp"
 #include "edgefuse/tracking/tracker.hpp"
 #include "parallel_tsdf.hpp"
+#include "pool_row_runner.hpp"
 
 namespace edgefuse::cli {
 namespace {
@@ -43,34 +44,6 @@ const char* kUsage =
     "  voxels of truncation when only --voxel is given); volume = the board's capacity, centred on\n"
     "  what the first frame sees; --out track.txt. Frames are pushed when the sensor moved 1 cm or\n"
     "  1 degree since the last push (--push-every-frame: always), never while tracking is lost.\n";
-
-// ICP rows over the worker pool: chunks from an atomic counter; the ICP reduces the per-row sums in
-// row order, so the split never changes the result.
-struct PoolRows {
-  WorkerPool* pool = nullptr;
-  struct Job {
-    void (*rows)(void*, int, int);
-    void* job;
-    int count;
-    std::atomic<int> next{0};
-  };
-  static void worker(void* p, int, int) {
-    Job* j = static_cast<Job*>(p);
-    constexpr int kChunk = 4;
-    for (;;) {
-      const int b = j->next.fetch_add(kChunk);
-      if (b >= j->count) return;
-      j->rows(j->job, b, std::min(b + kChunk, j->count));
-    }
-  }
-  static void run(void* self, void (*rows)(void*, int, int), void* job, int count) {
-    Job j;
-    j.rows = rows;
-    j.job = job;
-    j.count = count;
-    static_cast<PoolRows*>(self)->pool->run(&worker, &j);
-  }
-};
 
 struct Totals {
   double filter = 0, raycast = 0, icp = 0, integrate = 0, loop = 0;
@@ -163,12 +136,8 @@ int cmd_track(int argc, char** argv) {
 
   WorkerPool pool;
   pool.start(settings.threads);
-  PoolRows pool_rows;
-  pool_rows.pool = &pool;
-  RowRunner runner;
-  runner.run = &PoolRows::run;
-  runner.self = &pool_rows;
-  const RowRunner* rows = settings.threads > 1 ? &runner : nullptr;
+  PoolRowRunner pool_rows(pool);  // ICP rows over the pool (hal/os)
+  const RowRunner* rows = settings.threads > 1 ? pool_rows.runner() : nullptr;
 
   const bool use_colour = seq.colour_registered && core.volume.has_colour();
   std::vector<io::StampedPose> trajectory;

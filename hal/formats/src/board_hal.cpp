@@ -14,25 +14,6 @@ const BoardPin* BoardHal::find_pin(const std::string& name) const {
 
 namespace {
 
-bool table_array(const std::string& path, const toml::table& t, const char* key, const toml::array*& arr,
-                 std::string& err) {
-  arr = nullptr;
-  const toml::node* n = t.get(key);
-  if (!n) return true;
-  arr = n->as_array();
-  if (!arr || !arr->is_array_of_tables()) {
-    err = path + ": '" + key + "' must be an array of tables ([[" + key + "]])";
-    return false;
-  }
-  return true;
-}
-
-std::string where(const std::string& path, const char* kind, std::size_t index, const toml::table& t) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), " %zu (line %u)", index + 1, unsigned(t.source().begin.line));
-  return path + ": [[" + kind + "]]" + buf;
-}
-
 // A string key that must be one of `names`; its index in `out`.
 bool get_choice(detail::TomlFields& f, const char* key, const char* const* names, int count, int& out,
                 bool required) {
@@ -68,12 +49,12 @@ bool read_board_hal(const std::string& path, BoardHal& hal, std::string& err) {
     BoardHal out;
     detail::TomlFields top(t, path, err);
     const toml::array *cams = nullptr, *scanners = nullptr, *pins = nullptr;
-    if (!table_array(path, t, "camera", cams, err) || !table_array(path, t, "line_scanner", scanners, err) ||
-        !table_array(path, t, "pin", pins, err))
+    if (!detail::table_array(path, t, "camera", cams, err) ||
+        !detail::table_array(path, t, "line_scanner", scanners, err) || !detail::table_array(path, t, "pin", pins, err))
       return false;
     for (std::size_t i = 0; pins && i < pins->size(); ++i) {
       const toml::table& pt = *pins->get(i)->as_table();
-      detail::TomlFields f(pt, where(path, "pin", i, pt), err);
+      detail::TomlFields f(pt, detail::table_where(path, "pin", i, pt), err);
       BoardPin p;
       long long offset = 0, debounce = 0;
       int dir = 0, edge = 0;
@@ -91,7 +72,7 @@ bool read_board_hal(const std::string& path, BoardHal& hal, std::string& err) {
     }
     for (std::size_t i = 0; cams && i < cams->size(); ++i) {
       const toml::table& ct = *cams->get(i)->as_table();
-      detail::TomlFields f(ct, where(path, "camera", i, ct), err);
+      detail::TomlFields f(ct, detail::table_where(path, "camera", i, ct), err);
       BoardCamera c;
       int backend = 0;
       long long w = 0, h = 0, fps = 0, vid = -1, pid = -1;
@@ -123,7 +104,7 @@ bool read_board_hal(const std::string& path, BoardHal& hal, std::string& err) {
     }
     for (std::size_t i = 0; scanners && i < scanners->size(); ++i) {
       const toml::table& st = *scanners->get(i)->as_table();
-      detail::TomlFields f(st, where(path, "line_scanner", i, st), err);
+      detail::TomlFields f(st, detail::table_where(path, "line_scanner", i, st), err);
       BoardScanner s;
       int backend = 0;
       if (!get_name(f, s.name) || !get_choice(f, "backend", kScannerBackends, 3, backend, true) ||

@@ -35,14 +35,8 @@ bool folder_safe(const std::string& n) {
   return true;
 }
 
-std::string table_where(const std::string& path, const char* what, std::size_t index, const toml::table& t) {
-  std::string w = format("%s: %s #%zu", path.c_str(), what, index + 1);
-  if (t.source().begin.line) w += format(" (line %u)", unsigned(t.source().begin.line));
-  return w;
-}
-
 bool read_sensor(const std::string& path, std::size_t index, const toml::table& t, RigSensor& s, std::string& err) {
-  detail::TomlFields f(t, table_where(path, "sensor", index, t), err);
+  detail::TomlFields f(t, detail::table_where(path, "sensor", index, t), err);
   if (!f.get_string("name", s.name, true)) return false;
   if (!folder_safe(s.name))
     return f.fail("name '" + s.name + "' must be a plain folder name (letters, digits, '_', '-', '.')");
@@ -78,27 +72,13 @@ bool read_sensor(const std::string& path, std::size_t index, const toml::table& 
 
 bool read_object(const std::string& root, const std::string& path, std::size_t index, const toml::table& t,
                  RigObject& o, std::string& err) {
-  detail::TomlFields f(t, table_where(path, "object", index, t), err);
+  detail::TomlFields f(t, detail::table_where(path, "object", index, t), err);
   long long id = 0;
   if (!f.get_int("id", id, true, 0, 2147483647) || !f.get_string("model", o.model, true)) return false;
   if (o.model.empty() || o.model[0] == '/')
     return f.fail("model must be a path relative to the rig folder, got '" + o.model + "'");
   o.id = int(id);
   o.model_path = detail::join_path(root, o.model);
-  return true;
-}
-
-// An array of tables ([[name]]); a missing key gives an empty list.
-bool table_array(const std::string& path, const toml::table& t, const char* key, const toml::array*& arr,
-                 std::string& err) {
-  arr = nullptr;
-  const toml::node* n = t.get(key);
-  if (!n) return true;
-  arr = n->as_array();
-  if (!arr || !arr->is_array_of_tables()) {
-    err = path + ": '" + key + "' must be an array of tables ([[" + key + "]])";
-    return false;
-  }
   return true;
 }
 
@@ -114,7 +94,8 @@ bool read_rig_toml(const std::string& path, RigToml& rig, std::string& err) {
     if (!top.get_string("name", out.name, false)) return false;
     const toml::array* sensors = nullptr;
     const toml::array* objects = nullptr;
-    if (!table_array(path, t, "sensor", sensors, err) || !table_array(path, t, "object", objects, err)) return false;
+    if (!detail::table_array(path, t, "sensor", sensors, err) || !detail::table_array(path, t, "object", objects, err))
+      return false;
     if (!sensors || sensors->empty()) return top.fail("no [[sensor]] tables");
     for (std::size_t i = 0; i < sensors->size(); ++i) {
       RigSensor s;

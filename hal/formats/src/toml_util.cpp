@@ -153,4 +153,23 @@ bool read_pinhole_fields(TomlFields& f, PinholeIntrinsics& intr, bool ranges_req
   return true;
 }
 
+bool table_array(const std::string& path, const toml::table& t, const char* key, const toml::array*& arr,
+                 std::string& err) {
+  arr = nullptr;
+  const toml::node* n = t.get(key);
+  if (!n) return true;
+  arr = n->as_array();
+  if (!arr || !arr->is_array_of_tables()) {
+    err = path + ": '" + key + "' must be an array of tables ([[" + key + "]])";
+    return false;
+  }
+  return true;
+}
+
+std::string table_where(const std::string& path, const char* kind, std::size_t index, const toml::table& t) {
+  std::string w = path + ": [[" + kind + "]] #" + std::to_string(index + 1);
+  if (t.source().begin.line) w += " (line " + std::to_string(unsigned(t.source().begin.line)) + ")";
+  return w;
+}
+
 }  // namespace edgefuse::io::detail

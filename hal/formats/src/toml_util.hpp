@@ -45,6 +45,17 @@ class TomlFields {
   std::string& err_;
 };
 
+//! The array of tables `key` ([[key]]) of `t`: null when absent; an error naming `path` when
+//! `key` is something else.
+//! \param path file (for the message)  \param t parent table  \param key array name
+//! \param arr out: the array or null  \param err out: the message  \return false on error
+bool table_array(const std::string& path, const toml::table& t, const char* key, const toml::array*& arr,
+                 std::string& err);
+
+//! Where one table of an array of tables is: "<path>: [[<kind>]] #<index + 1> (line <n>)".
+//! \param path file  \param kind array name  \param index 0-based position  \param t the table
+std::string table_where(const std::string& path, const char* kind, std::size_t index, const toml::table& t);
+
 //! The pinhole keys shared by camera.toml and rig.toml sensors (width height fx fy cx cy
 //! depth_scale [min_range max_range]), range-checked. Ranges required when `ranges_required`.
 bool read_pinhole_fields(TomlFields& f, PinholeIntrinsics& intr, bool ranges_required, bool& has_min,
