@@ -52,8 +52,14 @@ bool HalDevices::known_pose(int i, uint32_t sequence, Pose& T_world_cam) const {
     T_world_cam = sim_cameras_[std::size_t(i)]->pose_of(sequence);
     return true;
   }
-  if (replay_cameras_[std::size_t(i)] != nullptr) return replay_cameras_[std::size_t(i)]->last_pose(T_world_cam);
+  if (replay_cameras_[std::size_t(i)] != nullptr) return replay_cameras_[std::size_t(i)]->pose_of(sequence, T_world_cam);
   return false;
+}
+
+bool HalDevices::sim_mounting(int i, Pose& T_rig_cam) const {
+  if (i < 0 || i >= int(cameras_.size()) || sim_cameras_[std::size_t(i)] == nullptr) return false;
+  T_rig_cam = sim_cameras_[std::size_t(i)]->config().T_rig_cam;
+  return true;
 }
 
 const char* HalDevices::built_backends() {

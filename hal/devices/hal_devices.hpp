@@ -45,11 +45,15 @@ class HalDevices {
   //! The line scanner, or null when the board has none.
   LineScanner* scanner() { return scanner_; }
   //! The true pose of a frame of camera i when its backend knows it (sim: the simulated rig's
-  //! motion; replay: the recording's ground truth of the frame delivered last); edgefused uses it
+  //! motion; replay: the recording's ground truth of that frame); edgefused uses it
   //! in place of tracking when configured. \return false for real devices or without truth
-  //! \param i camera index  \param sequence the frame's device sequence number (sim)
+  //! \param i camera index  \param sequence the frame's device sequence number
   //! \param T_world_cam receives the camera-to-world pose
   bool known_pose(int i, uint32_t sequence, Pose& T_world_cam) const;
+  //! Mounting of camera i on the rig when its backend knows it (sim: the simulated rig's mounting;
+  //! edgefused falls back to it when no calibration gives the camera's extrinsics).
+  //! \param i camera index  \param T_rig_cam receives the camera-to-rig pose  \return false otherwise
+  bool sim_mounting(int i, Pose& T_rig_cam) const;
   //! Names of the backends compiled into this build ("sim replay v4l2 ...").
   static const char* built_backends();
 

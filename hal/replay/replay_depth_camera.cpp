@@ -65,6 +65,9 @@ HalStatus ReplayDepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms) 
     }
   }
   ++index_;
+  // Numbered by position in the recording: a frame that fails to load leaves a gap (counted by the
+  // acquisition checks) and pose_of(sequence) stays exact.
+  const uint32_t sequence = sequence_++;
   const std::size_t n = std::size_t(seq_.intr.width) * std::size_t(seq_.intr.height);
   if (!io::load_depth(ref, seq_.intr, depth_, error_)) return HalStatus::kBadFrame;
   std::memcpy(frame.depth, depth_.data(), n * sizeof(uint16_t));
@@ -84,7 +87,7 @@ HalStatus ReplayDepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms) 
   frame.height = seq_.intr.height;
   frame.depth_scale = seq_.intr.depth_scale;
   frame.stamp_us = stamp_us;
-  frame.sequence = sequence_++;
+  frame.sequence = sequence;
   delivered_ = true;
   return HalStatus::kOk;
 }

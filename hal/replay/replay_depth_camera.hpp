@@ -40,6 +40,17 @@ class ReplayDepthCamera final : public DepthCamera {
     T_world_cam = seq_.frames[last_index()].T_world_cam;
     return true;
   }
+  //! Ground-truth pose of the frame with device sequence number `sequence` (frame.sequence counts
+  //! the recording's frames, loops included, so a frame the caller holds still finds its truth when
+  //! a device thread has delivered newer ones). \return false without truth
+  //! \param sequence the frame's sequence number  \param T_world_cam receives the camera-to-world pose
+  bool pose_of(uint32_t sequence, Pose& T_world_cam) const {
+    if (seq_.frames.empty()) return false;
+    const io::FrameRef& f = seq_.frames[sequence % seq_.frames.size()];
+    if (!f.has_pose) return false;
+    T_world_cam = f.T_world_cam;
+    return true;
+  }
   //! Index in the sequence of the frame delivered last.
   std::size_t last_index() const { return index_ == 0 ? 0 : index_ - 1; }
 

@@ -47,6 +47,10 @@ const ParamDef kParamDefs[kParamCount] = {
      "'known' (the sim / replay backend's true poses) or 'tracked' (ICP against the raycast model)"},
     {"tracking.push_every_frame", ParamType::kBool, 0, 1, "false", false,
      "tracked: integrate every frame (else when the sensor moved 1 cm or 1 degree)"},
+    // edgefused: every sensor feeds the map (issue 7, feat/edgefused3)
+    {"sensors.fuse", ParamType::kString, 0, kParamTextMax, "", false,
+     "cameras feeding the map, e.g. 'xtion,tof' (the first is the reference whose poses are known or tracked); "
+     "'' : hal.toml's first camera"},
 };
 
 namespace {

@@ -242,6 +242,7 @@ int main(int argc, char** argv) {
     }
     fc.tracked = poses == "tracked";
     fc.push_every_frame = g_params.get_bool(runtime::kTrackingPushEveryFrame);
+    fc.fuse = g_params.get_text(runtime::kSensorsFuse);
     if (!g_fusion.init(fc, err)) {
       std::fprintf(stderr, "edgefused: %s\n", err.c_str());
       return 1;
