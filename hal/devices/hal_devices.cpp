@@ -80,7 +80,7 @@ const char* HalDevices::built_backends() {
 }
 
 bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override,
-                       bool replay_loop) {
+                       bool replay_loop, double replay_speed) {
   owned_->sim_monitor.reset(new SimDeviceMonitor(clock));
   monitor_ = owned_->sim_monitor.get();
   bool any_usb = false;
@@ -116,7 +116,7 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
           err = where + ": replay: " + e;
           return false;
         }
-        ReplayDepthCamera* rc = new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, replay_loop);
+        ReplayDepthCamera* rc = new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, replay_loop, replay_speed);
         cam.reset(rc);
         replay_cam = rc;
         owned_->sequences.push_back(std::move(seq));

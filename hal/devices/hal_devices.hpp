@@ -34,8 +34,9 @@ class HalDevices {
   //! \param board parsed hal.toml  \param clock the HAL clock  \param err names the failing camera
   //! \param replay_override a data set folder: every camera replays its sensor from it instead
   //! \param replay_loop replayed recordings start again after their last frame (else end of stream)
+  //! \param replay_speed playback speed of replayed cameras (1: the recorded rate; 0.5: half of it)
   bool build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override = "",
-             bool replay_loop = true);
+             bool replay_loop = true, double replay_speed = 1.0);
   int camera_count() const { return int(cameras_.size()); }
   //! Camera i as the runtime uses it (inside its FaultCamera).
   //! \param i index in hal.toml order

@@ -21,7 +21,10 @@ class ReplayDepthCamera final : public DepthCamera {
  public:
   //! \param seq the opened sequence (kept by reference)  \param rate pacing  \param clock time base
   //! \param loop start again after the last frame (else kEndOfStream)
-  ReplayDepthCamera(const io::DepthSequence& seq, ReplayRate rate, Clock& clock, bool loop = false);
+  //! \param speed kRecorded: playback speed (0.5: slow motion at half the recorded rate, stamps
+  //! spaced accordingly)
+  ReplayDepthCamera(const io::DepthSequence& seq, ReplayRate rate, Clock& clock, bool loop = false,
+                    double speed = 1.0);
 
   const char* name() const override { return seq_.sensor_name.c_str(); }
   int mode_count() const override { return 1; }
@@ -59,6 +62,7 @@ class ReplayDepthCamera final : public DepthCamera {
   ReplayRate rate_;
   Clock& clock_;
   bool loop_;
+  double speed_;
   bool running_ = false;
   bool delivered_ = false;  // a frame was delivered (last_index() names it)
   std::size_t index_ = 0;

@@ -74,7 +74,7 @@ bool CameraStream::take_newest() {
   const hal::DepthFrame* f = channel.acquire_newest();
   if (f == nullptr) return false;
   if (held != nullptr) {
-    if (held_new) ++skipped;
+    if (held_new && fuse) ++skipped;  // a camera outside the map only keeps its newest frame
     channel.release(held);
   }
   held = f;

@@ -97,7 +97,7 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
   if (!io::read_board_hal(hal_path, hal_data, err)) return false;
   // A replayed recording is one scan: it ends after its last frame (each frame integrated once) and
   // the rig then counts as still (the still-period trigger localises).
-  if (!devices_.build(hal_data, hal::monotonic_clock(), err, config.replay, false)) {
+  if (!devices_.build(hal_data, hal::monotonic_clock(), err, config.replay, false, config.replay_speed)) {
     err = hal_path + ": " + err;
     return false;
   }
@@ -152,6 +152,10 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
   }
   CameraStream& ref = cams_[order_[0]];
   intr_ = ref.intr;
+  if (config.auto_poses) {
+    Pose first;
+    config_.tracked = !devices_.known_pose(ref.index, 0, first);
+  }
 
   // Static buffers: the arena carve of the host tools, the volume bound to the board's capacity.
   cli::BoardDefaults defaults;
@@ -220,7 +224,7 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
               ref.name.c_str(), config.replay.empty() ? "hal.toml backend" : "replay of ", config.replay.c_str(),
               intr_.width, intr_.height, ref.tof ? "tof" : "structured-light", config.bilateral ? "+bilateral" : "",
               fuse_.dim, fuse_.voxel_m * 1e3,
-              config.tracked ? (config.push_every_frame ? "tracked (ICP against the raycast model, every frame pushed)"
+              config_.tracked ? (config.push_every_frame ? "tracked (ICP against the raycast model, every frame pushed)"
                                                         : "tracked (ICP against the raycast model, push after 1 cm / 1 deg)")
                              : "known (the backend's truth)",
               fuse_.threads);

@@ -14,7 +14,8 @@
 // sensor's noise model (trust maps, as `edgefuse fuse --sensors`). Every camera streams (and is
 // counted in `status`) whether it feeds the map or not, so `calib fuse` can use its newest frame.
 //
-// Poses (tracking.poses): "known" = the backend's known poses (sim: the simulated rig's motion;
+// Poses (tracking.poses): "auto" (default) = "known" when the reference camera's backend knows its
+// poses (sim, a replay with ground truth), else "tracked" (a real camera); "known" = the backend's known poses (sim: the simulated rig's motion;
 // replay: the recording's ground truth), every frame pushed; "tracked" = the tracking module (ICP
 // against the model raycast at the last good pose, push after 1 cm / 1 degree), starting at the
 // backend's known pose of the map's first frame (else the identity). With "known", a camera without
@@ -61,7 +62,9 @@ struct FusionPipelineConfig {
   bool bilateral = false;   //!< bilateral filter on
   float min_score = 0.3f;   //!< localiser's own acceptance (the runtime filters again by its param)
   bool tracked = false;     //!< poses by ICP tracking (else the backend's known poses)
+  bool auto_poses = false;  //!< known poses when the reference camera's backend has them, else tracked
   bool push_every_frame = false;  //!< tracked: integrate every frame (else after 1 cm / 1 degree)
+  double replay_speed = 1;  //!< replayed cameras' playback speed (1: the recorded rate)
   std::string fuse;         //!< cameras feeding the map, "a,b" (first: reference); "" : hal.toml's first
 };
 

@@ -51,6 +51,7 @@ enum ParamId : int {
   kTrackingPushEveryFrame,
   // edgefused: every sensor feeds the map (issue 7, feat/edgefused3)
   kSensorsFuse,
+  kSensorsReplaySpeed,
   kParamCount
 };
 
