@@ -67,6 +67,7 @@ bool CameraStream::bind(CoreBuffers& b, const BoardCapacities& board, bool bilat
 bool CameraStream::restart_pool() {
   held = nullptr;
   held_new = false;
+  paired_stamp_us = 0;
   return g_pools[index].bind(channel, counters);
 }
 
@@ -75,6 +76,25 @@ bool CameraStream::take_newest() {
   if (f == nullptr) return false;
   if (held != nullptr) {
     if (held_new && fuse) ++skipped;  // a camera outside the map only keeps its newest frame
+    channel.release(held);
+  }
+  held = f;
+  held_new = true;
+  return true;
+}
+
+bool CameraStream::take_nearest(uint64_t stamp_us) {
+  const hal::DepthFrame* f = channel.acquire_nearest(stamp_us);
+  if (f == nullptr) return false;
+  auto dist = [stamp_us](const hal::DepthFrame* x) {
+    return x->stamp_us > stamp_us ? x->stamp_us - stamp_us : stamp_us - x->stamp_us;
+  };
+  if (held != nullptr && dist(held) <= dist(f)) {  // the held one is still the better partner
+    channel.release(f);
+    return false;
+  }
+  if (held != nullptr) {
+    if (held_new && fuse) ++unpaired;
     channel.release(held);
   }
   held = f;

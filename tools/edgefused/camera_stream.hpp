@@ -5,9 +5,10 @@
 // (filtered depth, trust map, ray norms, raycast maps, tile scratch, pyramid, ICP rows) with its
 // pre-filters and noise model.
 //
-// Newest-frame policy: take_newest() swaps the held frame for the newest ready one; older ready
-// frames go back to the device unread (counted as dropped_stale by the channel), and a held frame
-// that was never processed counts as skipped.
+// Newest-frame policy: take_newest() (the reference camera) swaps the held frame for the newest
+// ready one; older ready frames go back to the device unread (counted as dropped_stale by the
+// channel), and a held frame that was never processed counts as skipped. The other cameras are
+// paired with the reference's frame by nearest stamp (take_nearest()).
 #pragma once
 
 #include <cstdint>
@@ -35,6 +36,7 @@ struct CameraStream {
   std::unique_ptr<hal::CameraWorker> worker;
   const hal::DepthFrame* held = nullptr;  //!< newest frame taken from the channel (null: none yet)
   bool held_new = false;                  //!< held and not processed yet
+  uint64_t paired_stamp_us = 0;           //!< the reference frame the held frame was paired with
   uint32_t skipped = 0;                   //!< held frames replaced before they were processed
   uint32_t integrated = 0;                //!< frames integrated into the map
   uint32_t unpaired = 0;                  //!< no reference pose within the pairing window
@@ -63,6 +65,10 @@ struct CameraStream {
   bool restart_pool();
   //! Swaps the held frame for the newest ready one. \return true when a new frame is held
   bool take_newest();
+  //! Swaps the held frame for the ready one nearest in time to stamp_us when that is nearer than
+  //! the held one (a camera paired with the reference). \return true when a new frame is held
+  //! \param stamp_us the reference frame's stamp
+  bool take_nearest(uint64_t stamp_us);
   //! Returns the held frame to the channel (before the worker restarts the pool).
   void release_held();
   //! Runs the pre-filters on the held frame into `filtered`.

@@ -367,13 +367,13 @@ void FusionPipeline::reset_map() {
 
 void FusionPipeline::step(uint64_t now_us) {
   if (!mapping_ || !camera_running_) return;
-  // Newest-frame policy: each camera's newest frame is held, older ones go back to its thread.
-  for (int i = 0; i < camera_count_; ++i) cams_[i].take_newest();
+  // Newest-frame policy for the reference camera; the others are paired with its frames below.
+  CameraStream& ref = cams_[order_[0]];
+  ref.take_newest();
   if (localizing_) {
     update_drops();
     return;  // the volume belongs to the localiser now; the held frames wait
   }
-  CameraStream& ref = cams_[order_[0]];
   const hal::DeviceState st = ref.counters.device_state();
   if (ref.held_new) {
     ref.held_new = false;
@@ -388,17 +388,19 @@ void FusionPipeline::step(uint64_t now_us) {
     have_still_anchor_ = false;
     stats_.still_since_us = 0;
   }
-  for (int k = 1; k < fuse_count_; ++k) {
-    CameraStream& c = cams_[order_[k]];
-    if (!c.held_new || !have_ref_pose_) continue;
+  // Every other camera: the frame nearest in time to the reference's last frame (until one within
+  // the pairing window is found); integrated at the reference's pose when it feeds the map, else
+  // kept for calib fuse. Frames that find no partner are counted as unpaired.
+  for (int i = 0; i < camera_count_; ++i) {
+    CameraStream& c = cams_[i];
+    if (&c == &ref || !have_ref_pose_ || c.paired_stamp_us == ref_stamp_us_) continue;
+    c.take_nearest(ref_stamp_us_);
+    if (c.held == nullptr) continue;
     const uint64_t s = c.held->stamp_us;
-    if ((s > ref_stamp_us_ ? s - ref_stamp_us_ : ref_stamp_us_ - s) <= kPairWindowUs) {
-      c.held_new = false;
-      process_other(c);
-    } else if (s + kPairWindowUs < ref_stamp_us_) {
-      c.held_new = false;  // the reference has moved on: no pose for this frame any more
-      ++c.unpaired;
-    }  // else newer than the reference's last frame: it waits for the next one
+    if ((s > ref_stamp_us_ ? s - ref_stamp_us_ : ref_stamp_us_ - s) > kPairWindowUs) continue;
+    c.paired_stamp_us = ref_stamp_us_;
+    if (c.fuse && c.held_new) process_other(c);
+    c.held_new = false;
   }
   update_drops();
 }

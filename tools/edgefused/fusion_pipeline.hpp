@@ -98,6 +98,8 @@ class FusionPipeline final : public runtime::Pipeline {
 
   //! Frames integrated into the current map.
   uint32_t map_frames() const { return map_frames_; }
+  //! The board's devices (tests inject faults through their FaultCameras).
+  hal::HalDevices& devices() { return devices_; }
   //! Camera i's stream (counters, extrinsics); i < device_count().
   const CameraStream& camera_stream(int i) const { return cams_[i]; }
 

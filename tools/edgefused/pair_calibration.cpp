@@ -56,7 +56,7 @@ bool FusionPipeline::calibrate_pair(const char* from, const char* to, runtime::P
     return false;
   }
   CameraStream& B = cams_[b];
-  if (camera_running_) B.take_newest();
+  if (camera_running_) B.take_nearest(ref_stamp_us_);
   if (B.held == nullptr) {
     std::snprintf(reason, sizeof(reason), "no frame from %.40s yet (status shows its state)", to);
     return false;
