@@ -43,8 +43,8 @@ bool FusionPipeline::calibrate_pair(const char* from, const char* to, runtime::P
     return false;
   }
   if (a != order_[0]) {
-    std::snprintf(reason, sizeof(reason), "the map is built at %.40s's poses: calib fuse %.40s %.40s", ref.name.c_str(),
-                  ref.name.c_str(), to);
+    std::snprintf(reason, sizeof(reason), "the map is built at %.40s's poses: <from> must be %.40s", ref.name.c_str(),
+                  ref.name.c_str());
     return false;
   }
   if (localizing_) {
