@@ -195,8 +195,33 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   CHECK_TRUE(r.moved_mm < 5.0f);
   CHECK_TRUE(r.moved_deg < 1.0f);
   CHECK_FALSE(p->calibrate_pair("tof", "xtion", r, &why));
-  CHECK_FALSE(p->calibrate_pair("xtion", "laser", r, &why));
+  CHECK_FALSE(p->calibrate_pair("xtion", "laser", r, &why));  // streams, but is no camera
   STRCMP_EQUAL("'laser' is a line scanner: only depth cameras are calibrated as a pair", why);
+  p->stop_mapping();
+  p->shutdown();
+}
+
+// sensors.fuse = "xtion,laser": the sim line scanner's profiles (100 Hz, its own thread) enter the
+// map at the poses of the simulated axis, every one in order, without heap.
+TEST(FusionPipeline, LineScannerFeedsTheMap) {
+  wire::FusionPipelineConfig c;
+  c.board = kBuildBoard.name;
+  c.fuse = "xtion,laser";
+  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::string err;
+  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  CHECK_EQUAL(3, p->device_count());
+  STRCMP_EQUAL("laser", p->device_name(2));
+  const char* why = "";
+  CHECK_TRUE(p->start_mapping(&why));
+  CHECK_TRUE(step_frames(*p, 3));
+  const uint32_t before = p->scanner_stream().integrated;
+  edgefuse_test::alloc_count_start();
+  CHECK_TRUE(step_frames(*p, 5));
+  CHECK_EQUAL(0L, edgefuse_test::alloc_count());
+  CHECK_TRUE(p->scanner_stream().integrated > before + 10);
+  const std::string status = p->device_state(2);
+  CHECK_TRUE_TEXT(status.find("streaming (map) profiles") == 0, status.c_str());
   p->stop_mapping();
   p->shutdown();
 }
@@ -209,5 +234,9 @@ TEST(FusionPipeline, UnknownFuseSensorRefused) {
   std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
   std::string err;
   CHECK_FALSE(p->init(c, err));
-  CHECK_TRUE_TEXT(err.find("sensors.fuse = 'xtion,kinect': 'kinect' is not a camera of") == 0, err.c_str());
+  CHECK_TRUE_TEXT(err.find("sensors.fuse = 'xtion,kinect': 'kinect' is not a sensor of") == 0, err.c_str());
+  c.fuse = "laser,xtion";  // the reference must be a camera
+  std::unique_ptr<wire::FusionPipeline> q(new wire::FusionPipeline);
+  CHECK_FALSE(q->init(c, err));
+  CHECK_TRUE_TEXT(err.find("the first sensor is the reference and must be a camera") != std::string::npos, err.c_str());
 }

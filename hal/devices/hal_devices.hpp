@@ -55,6 +55,12 @@ class HalDevices {
   //! edgefused falls back to it when no calibration gives the camera's extrinsics).
   //! \param i camera index  \param T_rig_cam receives the camera-to-rig pose  \return false otherwise
   bool sim_mounting(int i, Pose& T_rig_cam) const;
+  //! Where the line scanner's axis carries it (sim: the simulated axis; replay: the line through
+  //! the recording's first and last poses): the sensor pose at axis position 0 and the unit
+  //! direction of travel, so a profile's pose is T_world_axis0 moved by axis * position.
+  //! \param T_world_axis0 receives the pose at position 0  \param axis_world receives the direction
+  //! \return false without a scanner or when the backend does not know its axis
+  bool scanner_axis(Pose& T_world_axis0, Vec3f& axis_world) const;
   //! Names of the backends compiled into this build ("sim replay v4l2 ...").
   static const char* built_backends();
 
@@ -69,6 +75,9 @@ class HalDevices {
   std::vector<std::unique_ptr<FaultCamera>> faults_;
   DeviceMonitor* monitor_ = nullptr;
   LineScanner* scanner_ = nullptr;
+  bool has_scanner_axis_ = false;
+  Pose scanner_axis0_;
+  Vec3f scanner_axis_ = Vec3f::UnitY();
 };
 
 }  // namespace edgefuse::hal

@@ -17,6 +17,7 @@
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/link/messages.hpp"
 #include "edgefuse/tsdf/extract.hpp"
+#include "edgefuse/tsdf/integrate_profile.hpp"
 #include "hal/posix/monotonic_clock.hpp"
 #include "localize_io.hpp"
 #include "parallel_tsdf.hpp"
@@ -136,11 +137,17 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
     int found = -1;
     for (int i = 0; i < camera_count_; ++i)
       if (cams_[i].name == n) found = i;
+    if (found < 0 && devices_.scanner() != nullptr && n == devices_.scanner()->name()) {
+      if (fuse_count_ == 0) {
+        err = "sensors.fuse = '" + config.fuse + "': the first sensor is the reference and must be a camera";
+        return false;
+      }
+      scanner_.fuse = true;
+      continue;
+    }
     if (found < 0) {
-      const bool scanner = devices_.scanner() != nullptr && n == devices_.scanner()->name();
-      err = "sensors.fuse = '" + config.fuse + "': '" + n + "' " +
-            (scanner ? "is a line scanner (edgefused fuses depth cameras only, so far)"
-                     : "is not a camera of " + hal_path + " (" + names + ")");
+      err = "sensors.fuse = '" + config.fuse + "': '" + n + "' is not a sensor of " + hal_path + " (" + names +
+            (devices_.scanner() != nullptr ? std::string(", ") + devices_.scanner()->name() : std::string()) + ")";
       return false;
     }
     if (cams_[found].fuse) {
@@ -177,8 +184,24 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
     c.worker.reset(new hal::CameraWorker(devices_.camera(i), c.channel, c.counters, hal::monotonic_clock(),
                                          &devices_.monitor()));
   }
+  // The line scanner: the slot after the cameras', its own thread and pool.
+  if (devices_.scanner() != nullptr) {
+    scanner_.name = devices_.scanner()->name();
+    if (!scanner_.bind(*devices_.scanner(), core_.buffers, *board, camera_count_, err)) {
+      if (scanner_.fuse) return false;
+      std::printf("line scanner %s not streamed: %s\n", scanner_.name.c_str(), err.c_str());
+      scanner_.name.clear();
+      err.clear();
+    } else {
+      scanner_.has_axis = devices_.scanner_axis(scanner_.T_world_axis0, scanner_.axis_world);
+      if (scanner_.fuse && !scanner_.has_axis) {
+        err = "sensors.fuse: line_scanner '" + scanner_.name + "': its backend reports no axis to place profiles";
+        return false;
+      }
+    }
+  }
   // Several sensors in one map: each pixel weighted by its sensor's noise (as edgefuse fuse --sensors).
-  use_trust_ = fuse_count_ > 1;
+  use_trust_ = fuse_count_ > 1 || scanner_.fuse;
   if (use_trust_ && ref.trust.data == nullptr) {
     err = std::string("board ") + board->name + " has no trust maps in its memory map (needed to fuse several sensors)";
     return false;
@@ -230,6 +253,8 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
               fuse_.threads);
   std::string fused;
   for (int k = 0; k < fuse_count_; ++k) fused += (k ? "," : "") + cams_[order_[k]].name;
+  if (scanner_.fuse) fused += "," + scanner_.name;
+  if (!scanner_.name.empty()) names += ", " + scanner_.name;
   std::printf("sensors: %s stream (one acquisition thread each); map: %s%s\n", names.c_str(), fused.c_str(),
               use_trust_ ? " (weights from each sensor's noise model)" : "");
   pool_.start(fuse_.threads);
@@ -315,12 +340,17 @@ void FusionPipeline::shutdown() {
   pool_.stop();
   for (int i = 0; i < camera_count_; ++i)
     if (cams_[i].worker) cams_[i].worker->stop();
+  if (scanner_.worker) scanner_.worker->stop();
   camera_running_ = false;
 }
 
-const char* FusionPipeline::device_name(int i) const { return cams_[i].name.c_str(); }
+const char* FusionPipeline::device_name(int i) const {
+  return i < camera_count_ ? cams_[i].name.c_str() : scanner_.name.c_str();
+}
 
-const char* FusionPipeline::device_state(int i) const { return cams_[i].status_text(); }
+const char* FusionPipeline::device_state(int i) const {
+  return i < camera_count_ ? cams_[i].status_text() : scanner_.status_text();
+}
 
 bool FusionPipeline::start_mapping(const char** why) {
   if (!camera_running_) {
@@ -340,6 +370,12 @@ bool FusionPipeline::start_mapping(const char** why) {
         return false;
       }
     }
+    if (scanner_.worker) {
+      if (!scanner_.restart_pool() || !scanner_.worker->start(hal::ScannerWorkerConfig())) {
+        *why = "the line scanner's acquisition thread did not start";
+        return false;
+      }
+    }
     camera_running_ = true;
   }
   mapping_ = true;
@@ -350,6 +386,7 @@ void FusionPipeline::stop_mapping() {
   mapping_ = false;
   // The threads stop; each camera's held frame stays valid (calib fuse may still use it).
   for (int i = 0; i < camera_count_; ++i) cams_[i].worker->stop();
+  if (scanner_.worker) scanner_.worker->stop();
   camera_running_ = false;
   have_still_anchor_ = false;
   stats_.fps = 0;
@@ -402,7 +439,26 @@ void FusionPipeline::step(uint64_t now_us) {
     if (c.fuse && c.held_new) process_other(c);
     c.held_new = false;
   }
+  // The line scanner: every profile, in order (each is one slice of the scan).
+  if (scanner_.worker) scanner_.channel.drain([this](const hal::LineProfile& p) { process_profile(p); });
   update_drops();
+}
+
+void FusionPipeline::process_profile(const hal::LineProfile& p) {
+  if (!scanner_.fuse) return;
+  Pose T;
+  if (clear_pending_ || !scanner_.pose_of(p, T)) {  // no map placed yet, or no axis position
+    ++scanner_.skipped;
+    return;
+  }
+  // The laser's noise (20 um, constant) against the trust reference, as edgefuse fuse --sensors.
+  const float trust = NoiseModel::constant(20e-6f).trust(0.5f * fuse_.voxel_m, 0.0f);
+  if (integrate_profile<real_t>(core_.volume, scanner_.model, scanner_.tables, p.ranges_m, T, 0.0f, trust) !=
+      Status::kOk) {
+    ++pipeline_drops_;
+    return;
+  }
+  ++scanner_.integrated;
 }
 
 void FusionPipeline::update_drops() {
@@ -413,6 +469,10 @@ void FusionPipeline::update_drops() {
          c.counters.dropped_overrun.load(std::memory_order_relaxed) + c.counters.device_gaps.load(std::memory_order_relaxed) +
          c.counters.rejected_total() + c.skipped + c.unpaired;
   }
+  if (scanner_.fuse)
+    n += scanner_.counters.dropped_overrun.load(std::memory_order_relaxed) +
+         scanner_.counters.device_gaps.load(std::memory_order_relaxed) + scanner_.counters.rejected_total() +
+         scanner_.skipped;
   stats_.drops = n;
 }
 

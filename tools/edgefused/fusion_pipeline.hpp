@@ -13,6 +13,9 @@
 // the sim backend's mounting. With more than one camera in the map each pixel's weight follows its
 // sensor's noise model (trust maps, as `edgefuse fuse --sensors`). Every camera streams (and is
 // counted in `status`) whether it feeds the map or not, so `calib fuse` can use its newest frame.
+// The line scanner (sensors.fuse lists it by name) streams on its own thread too; every profile is
+// integrated (integrate_profile) at the pose its axis position gives along the axis the backend
+// reports (HalDevices::scanner_axis), once the reference camera has placed the map.
 //
 // Poses (tracking.poses): "auto" (default) = "known" when the reference camera's backend knows its
 // poses (sim, a replay with ground truth), else "tracked" (a real camera); "known" = the backend's known poses (sim: the simulated rig's motion;
@@ -41,6 +44,7 @@
 #include <vector>
 
 #include "camera_stream.hpp"
+#include "scanner_stream.hpp"
 #include "core_setup.hpp"
 #include "edgefuse/filters/depth_filter_chain.hpp"
 #include "edgefuse/localize/localizer.hpp"
@@ -90,7 +94,7 @@ class FusionPipeline final : public runtime::Pipeline {
   void calibration_changed(const runtime::CalibrationData& d) override;
   runtime::PipelineStats stats() const override { return stats_; }
   bool map_empty() const override { return map_frames_ == 0; }
-  int device_count() const override { return camera_count_; }
+  int device_count() const override { return camera_count_ + (scanner_.name.empty() ? 0 : 1); }
   const char* device_name(int i) const override;
   const char* device_state(int i) const override;
   int model_count() const override { return loc_.model_count(); }
@@ -102,6 +106,8 @@ class FusionPipeline final : public runtime::Pipeline {
   hal::HalDevices& devices() { return devices_; }
   //! Camera i's stream (counters, extrinsics); i < device_count().
   const CameraStream& camera_stream(int i) const { return cams_[i]; }
+  //! The line scanner's stream (name "" without one).
+  const ScannerStream& scanner_stream() const { return scanner_; }
 
   //! Largest stamp difference between a camera's frame and the reference frame whose pose it takes.
   static constexpr uint64_t kPairWindowUs = 40000;
@@ -110,6 +116,7 @@ class FusionPipeline final : public runtime::Pipeline {
   static constexpr int kCamerasMax = 3;
   void process_reference(uint64_t now_us);
   void process_other(CameraStream& c);
+  void process_profile(const hal::LineProfile& p);
   void update_mounts();
   void update_drops();
   void centre_volume(const DepthFrame& frame, const Pose& T_world_cam);
@@ -119,6 +126,7 @@ class FusionPipeline final : public runtime::Pipeline {
   FusionPipelineConfig config_;
   hal::HalDevices devices_;
   CameraStream cams_[kCamerasMax];
+  ScannerStream scanner_;
   int camera_count_ = 0;
   int order_[kCamerasMax] = {0, 1, 2};  // cams_ indices: the reference first, then the other map cameras
   int fuse_count_ = 0;                  // cameras feeding the map (order_[0..fuse_count_))
