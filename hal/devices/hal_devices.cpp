@@ -208,7 +208,7 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
         err = where + ": replay: " + err;
         return false;
       }
-      owned_->scanner.reset(new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock));
+      owned_->scanner.reset(new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock, replay_speed));
       // The axis as the replay reports positions: from the first to the last recorded pose.
       std::size_t first = scan->has_pose.size(), last = 0;
       for (std::size_t p = 0; p < scan->has_pose.size(); ++p)

@@ -415,6 +415,7 @@ void FusionPipeline::step(uint64_t now_us) {
   if (ref.held_new) {
     ref.held_new = false;
     process_reference(now_us);
+    drain_profiles();  // between the cameras too: the profile pool holds 150 ms at 100 Hz
   } else if (st == hal::DeviceState::kEnded) {
     stats_.fps = 0;
     if (stats_.still_since_us == 0) stats_.still_since_us = now_us;
@@ -436,12 +437,19 @@ void FusionPipeline::step(uint64_t now_us) {
     const uint64_t s = c.held->stamp_us;
     if ((s > ref_stamp_us_ ? s - ref_stamp_us_ : ref_stamp_us_ - s) > kPairWindowUs) continue;
     c.paired_stamp_us = ref_stamp_us_;
-    if (c.fuse && c.held_new) process_other(c);
+    if (c.fuse && c.held_new) {
+      process_other(c);
+      drain_profiles();
+    }
     c.held_new = false;
   }
-  // The line scanner: every profile, in order (each is one slice of the scan).
-  if (scanner_.worker) scanner_.channel.drain([this](const hal::LineProfile& p) { process_profile(p); });
+  drain_profiles();
   update_drops();
+}
+
+// The line scanner: every profile, in order (each is one slice of the scan).
+void FusionPipeline::drain_profiles() {
+  if (scanner_.worker) scanner_.channel.drain([this](const hal::LineProfile& p) { process_profile(p); });
 }
 
 void FusionPipeline::process_profile(const hal::LineProfile& p) {

@@ -117,6 +117,7 @@ class FusionPipeline final : public runtime::Pipeline {
   void process_reference(uint64_t now_us);
   void process_other(CameraStream& c);
   void process_profile(const hal::LineProfile& p);
+  void drain_profiles();
   void update_mounts();
   void update_drops();
   void centre_volume(const DepthFrame& frame, const Pose& T_world_cam);
