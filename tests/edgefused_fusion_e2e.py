@@ -274,7 +274,8 @@ if "ready" in info:
         listen.kill()
         out, err = listen.communicate()
     rows = [l.split(",") for l in out.strip().splitlines() if l[:1].isdigit()]
-    check(listen.returncode == 0, "tracked: a result by the still-period trigger")
+    check(listen.returncode == 0 and len(rows) > 0,
+          "tracked: a result by the still-period trigger (%d rows; listen: %s)" % (len(rows), err.strip()))
     print(command(con, "status").strip())
     est = os.path.join(WORK, "poses_tracked.txt")
     with open(est, "w") as f:
