@@ -226,6 +226,27 @@ TEST(FusionPipeline, LineScannerFeedsTheMap) {
   p->shutdown();
 }
 
+// A tracked map starts at flange pose x hand-eye x mounting: with the store's identity hand-eye at
+// the sim robot's pose (= the camera's true pose); a hand-eye of 10 mm along the flange's x moves
+// the start by that much along the flange's x axis.
+TEST(FusionPipeline, TrackingStartsAtFlangeTimesHandEye) {
+  wire::FusionPipelineConfig c;
+  c.board = kBuildBoard.name;
+  c.tracked = true;
+  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::string err;
+  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  Pose truth;
+  CHECK_TRUE(p->devices().known_pose(0, 7, truth));
+  const Pose a = p->tracking_start_pose(7);
+  CHECK_TRUE((a.t - truth.t).norm() < 1e-5f);
+  runtime::CalibrationData d;
+  d.T_flange_rig.tq[0] = 0.01f;
+  p->calibration_changed(d);
+  const Pose b = p->tracking_start_pose(7);
+  CHECK_TRUE((b.t - (truth.t + truth.R * Vec3f(0.01f, 0, 0))).norm() < 1e-5f);
+}
+
 // A sensor that is not a camera of hal.toml is refused at start-up with the key and the names.
 TEST(FusionPipeline, UnknownFuseSensorRefused) {
   wire::FusionPipelineConfig c;

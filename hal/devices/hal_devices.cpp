@@ -63,6 +63,17 @@ bool HalDevices::scanner_axis(Pose& T_world_axis0, Vec3f& axis_world) const {
   return true;
 }
 
+bool HalDevices::flange_pose(int i, uint32_t sequence, Pose& T_world_flange) const {
+  if (i < 0 || i >= int(cameras_.size())) return false;
+  if (sim_cameras_[std::size_t(i)] != nullptr) {
+    const SimDepthCamera& c = *sim_cameras_[std::size_t(i)];
+    T_world_flange = c.pose_of(sequence) * c.config().T_rig_cam.inverse();
+    return true;
+  }
+  if (replay_cameras_[std::size_t(i)] != nullptr) return replay_cameras_[std::size_t(i)]->pose_of(sequence, T_world_flange);
+  return false;
+}
+
 bool HalDevices::sim_mounting(int i, Pose& T_rig_cam) const {
   if (i < 0 || i >= int(cameras_.size()) || sim_cameras_[std::size_t(i)] == nullptr) return false;
   T_rig_cam = sim_cameras_[std::size_t(i)]->config().T_rig_cam;

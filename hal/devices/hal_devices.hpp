@@ -51,6 +51,13 @@ class HalDevices {
   //! \param i camera index  \param sequence the frame's device sequence number
   //! \param T_world_cam receives the camera-to-world pose
   bool known_pose(int i, uint32_t sequence, Pose& T_world_cam) const;
+  //! The robot's flange pose at frame `sequence` of camera i where the simulation stands in for a
+  //! robot: the sim backend's robot carries the rig with the flange at the rig's origin (its
+  //! pose is the camera's pose times the camera's mounting inverted); a replayed rig set's rig
+  //! frame is its reference sensor's, so the frame's ground truth. Real devices: no robot pose.
+  //! \param i camera index  \param sequence the frame's sequence number  \param T_world_flange receives it
+  //! \return false when no robot pose is available
+  bool flange_pose(int i, uint32_t sequence, Pose& T_world_flange) const;
   //! Mounting of camera i on the rig when its backend knows it (sim: the simulated rig's mounting;
   //! edgefused falls back to it when no calibration gives the camera's extrinsics).
   //! \param i camera index  \param T_rig_cam receives the camera-to-rig pose  \return false otherwise

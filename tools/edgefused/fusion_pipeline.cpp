@@ -514,16 +514,17 @@ void FusionPipeline::process_reference(uint64_t now_us) {
   bool push = true;
   if (config_.tracked) {
     // The paper's loop (Fig. 3): ICP of the frame against the model raycast at the last good pose;
-    // pushed when it moved 1 cm / 1 degree. A new map starts at the backend's known pose (the
-    // world frame of the truth), else at the identity.
+    // pushed when it moved 1 cm / 1 degree. A new map starts at the pose the robot's flange and
+    // the calibrated hand-eye mounting give (tracking_start_pose).
     const bool first = clear_pending_ || map_frames_ == 0;
     TrackerParams tp;
     tp.push.every_frame = config_.push_every_frame;
-    if (first && tracker_.start(known ? T : Pose::identity(), tp, true) != Status::kOk) {
+    const Pose start = first ? tracking_start_pose(frame.sequence) : Pose::identity();
+    if (first && tracker_.start(start, tp, true) != Status::kOk) {
       ++pipeline_drops_;
       return;
     }
-    if (first && clear_pending_) centre_volume(f, known ? T : Pose::identity());
+    if (first && clear_pending_) centre_volume(f, start);
     Status s = Status::kOk;
     if (!first) s = raycast_parallel<real_t>(pool_, core_.volume, intr_, tracker_.raycast_pose(), ref.maps, ref.scratch);
     TrackResult r;
@@ -589,6 +590,31 @@ void FusionPipeline::process_reference(uint64_t now_us) {
   ++map_frames_;
   view_sum_ += T.t;
   last_capture_us_ = frame.stamp_us;
+}
+
+// T_world_ref = T_world_flange * T_flange_rig * T_rig_ref: the robot's flange pose (where a robot
+// pose is available), the hand-eye mounting and the reference camera's mounting on the rig.
+Pose FusionPipeline::tracking_start_pose(uint32_t sequence) {
+  const CameraStream& ref = cams_[order_[0]];
+  Pose T_world_flange;
+  if (!devices_.flange_pose(ref.index, sequence, T_world_flange)) {
+    std::printf("tracking: no robot pose: the map starts at the identity\n");
+    return Pose::identity();
+  }
+  Pose T_rig_ref = Pose::identity();
+  const char* mount = "identity";
+  if (const runtime::SensorPair* p = runtime::calib_find_pair(calib_, "rig", ref.name.c_str())) {
+    T_rig_ref = to_pose(p->T_from_to);
+    mount = "calibration store";
+  } else if (devices_.sim_mounting(ref.index, T_rig_ref)) {
+    mount = "sim mounting";
+  }
+  const Pose T = T_world_flange * to_pose(calib_.T_flange_rig) * T_rig_ref;
+  std::printf("tracking: start pose = flange pose (robot) x hand-eye T_flange_rig (calibration) x T_rig_%s (%s): "
+              "t %.4f %.4f %.4f\n",
+              ref.name.c_str(), mount, double(T.t.x()), double(T.t.y()), double(T.t.z()));
+  std::fflush(stdout);
+  return T;
 }
 
 // Another camera of the map: its frame at the reference's pose of the same instant times its

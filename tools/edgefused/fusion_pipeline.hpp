@@ -21,7 +21,10 @@
 // poses (sim, a replay with ground truth), else "tracked" (a real camera); "known" = the backend's known poses (sim: the simulated rig's motion;
 // replay: the recording's ground truth), every frame pushed; "tracked" = the tracking module (ICP
 // against the model raycast at the last good pose, push after 1 cm / 1 degree), starting at the
-// backend's known pose of the map's first frame (else the identity). With "known", a camera without
+// pose composed from the robot's flange pose at the map's first frame, the hand-eye mounting
+// T_flange_rig of the calibration store and the reference camera's mounting on the rig T_rig_ref
+// (calibration store, else the sim mounting, else the identity); without a robot pose (a real
+// device, no robot link yet) the identity. With "known", a camera without
 // known poses (a real device) has its frames counted as drops and says so once.
 //
 // Memory: everything is allocated in init() (arena carve as CoreSetup does, models, worker threads,
@@ -102,6 +105,10 @@ class FusionPipeline final : public runtime::Pipeline {
 
   //! Frames integrated into the current map.
   uint32_t map_frames() const { return map_frames_; }
+  //! Where a tracked map starts: T_world_flange (robot pose at the reference camera's frame
+  //! `sequence`) * T_flange_rig (hand-eye, calibration) * T_rig_ref; the identity without a robot pose.
+  //! \param sequence the first frame's sequence number
+  Pose tracking_start_pose(uint32_t sequence);
   //! The board's devices (tests inject faults through their FaultCameras).
   hal::HalDevices& devices() { return devices_; }
   //! Camera i's stream (counters, extrinsics); i < device_count().
