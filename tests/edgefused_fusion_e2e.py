@@ -309,6 +309,14 @@ if "ready" in info:
     for oid, (x, y) in sorted(truth.items()):
         dist = min((((sx - x) ** 2 + (sy - y) ** 2) ** 0.5 for sx, sy in segs), default=1.0)
         check(dist <= 0.030, "sim: object %d has a segment %.1f mm away horizontally" % (oid, dist * 1e3))
+    # scan stop / start joins and restarts every acquisition thread: memory stays flat.
+    vm = []
+    for _ in range(6):
+        command(con, "scan stop")
+        command(con, "scan start")
+        time.sleep(0.3)
+        vm.append(vm_data_kib(d.pid))
+    check(SANITIZED or len(set(vm[1:])) == 1, "sim: VmData flat over scan stop/start cycles: %s KiB" % vm)
     text = stop(d, log, 1)
 else:
     d.kill()
