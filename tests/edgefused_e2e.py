@@ -18,6 +18,9 @@ import sys
 import termios
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from edgefused_helpers import command, open_raw, vm_data_kib  # noqa: E402
+
 EDGEFUSED, EDGEFUSE, LISTEN_PY, WORK = sys.argv[1:5]
 # This test checks the runtime, console and link with exact poses: it runs the simulated pose
 # source. The real pipeline is tested by edgefused_fusion_e2e.py.
@@ -37,40 +40,6 @@ def check(cond, what):
     print(("ok   " if cond else "FAIL ") + what, flush=True)
     if not cond:
         failures.append(what)
-
-
-def open_raw(dev):
-    fd = os.open(dev, os.O_RDWR | os.O_NOCTTY)
-    a = termios.tcgetattr(fd)
-    a[0] = a[1] = a[3] = 0
-    a[2] = termios.CS8 | termios.CREAD | termios.CLOCAL
-    a[6][termios.VMIN] = 1
-    a[6][termios.VTIME] = 0
-    termios.tcsetattr(fd, termios.TCSANOW, a)
-    return fd
-
-
-def command(fd, line, timeout=5.0):
-    """Sends a console line, returns the reply up to and including OK / ERR."""
-    os.write(fd, (line + "\r").encode())
-    got = b""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        r, _, _ = select.select([fd], [], [], 0.1)
-        if r:
-            got += os.read(fd, 4096)
-            lines = got.decode(errors="replace").split("\r\n")
-            if any(l == "OK" or l.startswith("ERR ") for l in lines[:-1]):
-                return got.decode(errors="replace")
-    return got.decode(errors="replace")
-
-
-def vm_data_kib(pid):
-    with open("/proc/%d/status" % pid) as f:
-        for line in f:
-            if line.startswith("VmData:"):
-                return int(line.split()[1])
-    return -1
 
 
 def check_csv(text, who):

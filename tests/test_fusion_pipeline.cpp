@@ -10,6 +10,7 @@
 #include "alloc_counter.hpp"
 #include "edgefuse/board_config.hpp"
 #include "fusion_pipeline.hpp"
+#include "hal/sim/fault_camera.hpp"
 
 #include <CppUTest/TestHarness.h>
 
@@ -96,3 +97,167 @@ TEST_GROUP(FusionPipeline){};
 TEST(FusionPipeline, KnownPosesSegmentsWithoutHeap) { run_pipeline(false); }
 
 TEST(FusionPipeline, TrackedPosesSegmentsWithoutHeap) { run_pipeline(true); }
+
+namespace {
+// Steps for `ms` milliseconds.
+void step_for(wire::FusionPipeline& p, int ms) {
+  const uint64_t end = now_us() + uint64_t(ms) * 1000u;
+  while (now_us() < end) {
+    p.step(now_us());
+    sleep_ms(2);
+  }
+}
+// Steps until the reference camera is in state `s` (at most 10 s).
+bool wait_state(wire::FusionPipeline& p, hal::DeviceState s) {
+  const uint64_t end = now_us() + 10000000u;
+  while (p.camera_stream(0).counters.device_state() != s && now_us() < end) step_for(p, 5);
+  return p.camera_stream(0).counters.device_state() == s;
+}
+}  // namespace
+
+// Faults at the camera (issue 6 item 10 in edgefused): the acquisition thread recovers a stall by
+// reopening, rejects a garbage frame with a counted reason, waits out an unplug; tracking pauses
+// meanwhile and the map is kept (frames go on adding to it afterwards).
+TEST(FusionPipeline, CameraFaultsKeepTheMap) {
+  wire::FusionPipelineConfig c;
+  c.board = kBuildBoard.name;
+  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::string err;
+  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  const char* why = "";
+  CHECK_TRUE(p->start_mapping(&why));
+  CHECK_TRUE(step_frames(*p, 3));
+  const hal::AcquisitionCounters& k = p->camera_stream(0).counters;
+  hal::FaultCamera& cam = p->devices().camera(0);
+
+  // Stall longer than the worker's 1 s stall limit: stop, back off, reopen.
+  cam.inject_stall(1500);
+  step_for(*p, 300);  // frames rendered before the stall drain
+  uint32_t mapped = p->map_frames();
+  step_for(*p, 300);
+  CHECK_EQUAL(mapped, p->map_frames());  // nothing arrives, nothing is lost
+  CHECK_TRUE(step_frames(*p, 3));         // frames return by themselves
+  CHECK_TRUE(k.stalls.load() >= 1);
+  CHECK_TRUE(k.opens.load() >= 2);
+  CHECK_TRUE(p->map_frames() >= mapped + 3);
+
+  // A frame with no valid pixel: rejected with its reason, never integrated.
+  cam.inject_garbage(hal::GarbageKind::kAllInvalid);
+  CHECK_TRUE(step_frames(*p, 2));
+  CHECK_EQUAL(1u, k.rejected[size_t(hal::FrameReject::kAllInvalid)].load());
+
+  // Unplugged: the thread waits for the device monitor; tracking off, the map kept; replugged: on.
+  mapped = p->map_frames();
+  cam.set_plugged(false);
+  CHECK_TRUE(wait_state(*p, hal::DeviceState::kUnplugged));
+  // The frames delivered before the unplug are integrated first (one step each on a slow machine).
+  for (int i = 0; i < 500 && p->stats().tracking != edgefuse_link_TrackingState_TRACKING_OFF; ++i) step_for(*p, 10);
+  CHECK_EQUAL_TEXT(int(edgefuse_link_TrackingState_TRACKING_OFF), int(p->stats().tracking), p->device_state(0));
+  CHECK_FALSE(p->map_empty());
+  cam.set_plugged(true);
+  CHECK_TRUE(step_frames(*p, 3));
+  CHECK_TRUE(k.reconnects.load() >= 1);
+  CHECK_TRUE(p->map_frames() >= mapped + 3);
+  const std::string status = p->device_state(0);
+  CHECK_TRUE_TEXT(status.find("streaming (map)") == 0, status.c_str());
+  CHECK_TRUE_TEXT(status.find("all_invalid 1") != std::string::npos, status.c_str());
+  p->stop_mapping();
+  p->shutdown();
+}
+
+// sensors.fuse = "xtion,tof": the tof's frames enter the map at the xtion's pose of the same
+// instant times the sim rig's mounting, weighted by its noise model; no heap while mapping; and
+// calib fuse on the live map recovers the mounting.
+TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
+  wire::FusionPipelineConfig c;
+  c.board = kBuildBoard.name;
+  c.fuse = "xtion,tof";
+  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::string err;
+  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  STRCMP_EQUAL("sim rig mounting", p->camera_stream(1).mount_source);
+  const char* why = "";
+  CHECK_TRUE(p->start_mapping(&why));
+  CHECK_TRUE(step_frames(*p, 4));
+  edgefuse_test::alloc_count_start();
+  CHECK_TRUE(step_frames(*p, 10));
+  CHECK_EQUAL(0L, edgefuse_test::alloc_count());
+  CHECK_TRUE(p->camera_stream(1).integrated >= 2);
+  // The tof's newest frame against the map (the sim rig sways slowly: within the pairing window).
+  runtime::PairCalibrationReport r;
+  bool ok = false;
+  for (int attempt = 0; attempt < 20 && !ok; ++attempt) {
+    step_for(*p, 30);
+    ok = p->calibrate_pair("xtion", "tof", r, &why);
+  }
+  CHECK_TRUE_TEXT(ok, why);
+  // Started at the true mounting: the fit stays within a few mm / tenths of a degree of it.
+  CHECK_TRUE(r.moved_mm < 5.0f);
+  CHECK_TRUE(r.moved_deg < 1.0f);
+  CHECK_FALSE(p->calibrate_pair("tof", "xtion", r, &why));
+  CHECK_FALSE(p->calibrate_pair("xtion", "laser", r, &why));  // streams, but is no camera
+  STRCMP_EQUAL("'laser' is a line scanner: only depth cameras are calibrated as a pair", why);
+  p->stop_mapping();
+  p->shutdown();
+}
+
+// sensors.fuse = "xtion,laser": the sim line scanner's profiles (100 Hz, its own thread) enter the
+// map at the poses of the simulated axis, every one in order, without heap.
+TEST(FusionPipeline, LineScannerFeedsTheMap) {
+  wire::FusionPipelineConfig c;
+  c.board = kBuildBoard.name;
+  c.fuse = "xtion,laser";
+  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::string err;
+  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  CHECK_EQUAL(3, p->device_count());
+  STRCMP_EQUAL("laser", p->device_name(2));
+  const char* why = "";
+  CHECK_TRUE(p->start_mapping(&why));
+  CHECK_TRUE(step_frames(*p, 3));
+  const uint32_t before = p->scanner_stream().integrated;
+  edgefuse_test::alloc_count_start();
+  CHECK_TRUE(step_frames(*p, 5));
+  CHECK_EQUAL(0L, edgefuse_test::alloc_count());
+  CHECK_TRUE(p->scanner_stream().integrated > before + 10);
+  const std::string status = p->device_state(2);
+  CHECK_TRUE_TEXT(status.find("streaming (map) profiles") == 0, status.c_str());
+  p->stop_mapping();
+  p->shutdown();
+}
+
+// A tracked map starts at flange pose x hand-eye x mounting: with the store's identity hand-eye at
+// the sim robot's pose (= the camera's true pose); a hand-eye of 10 mm along the flange's x moves
+// the start by that much along the flange's x axis.
+TEST(FusionPipeline, TrackingStartsAtFlangeTimesHandEye) {
+  wire::FusionPipelineConfig c;
+  c.board = kBuildBoard.name;
+  c.tracked = true;
+  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::string err;
+  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  Pose truth;
+  CHECK_TRUE(p->devices().known_pose(0, 7, truth));
+  const Pose a = p->tracking_start_pose(7);
+  CHECK_TRUE((a.t - truth.t).norm() < 1e-5f);
+  runtime::CalibrationData d;
+  d.T_flange_rig.tq[0] = 0.01f;
+  p->calibration_changed(d);
+  const Pose b = p->tracking_start_pose(7);
+  CHECK_TRUE((b.t - (truth.t + truth.R * Vec3f(0.01f, 0, 0))).norm() < 1e-5f);
+}
+
+// A sensor that is not a camera of hal.toml is refused at start-up with the key and the names.
+TEST(FusionPipeline, UnknownFuseSensorRefused) {
+  wire::FusionPipelineConfig c;
+  c.board = kBuildBoard.name;
+  c.fuse = "xtion,kinect";
+  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::string err;
+  CHECK_FALSE(p->init(c, err));
+  CHECK_TRUE_TEXT(err.find("sensors.fuse = 'xtion,kinect': 'kinect' is not a sensor of") == 0, err.c_str());
+  c.fuse = "laser,xtion";  // the reference must be a camera
+  std::unique_ptr<wire::FusionPipeline> q(new wire::FusionPipeline);
+  CHECK_FALSE(q->init(c, err));
+  CHECK_TRUE_TEXT(err.find("the first sensor is the reference and must be a camera") != std::string::npos, err.c_str());
+}

@@ -2,6 +2,7 @@
 // command or after the still period) -> REPORT -> back to MAPPING / IDLE; results numbered and
 // filtered by localize.min_score, heartbeats at link.heartbeat_ms, commands refused in the wrong
 // state, and no heap allocation in steady state.
+#include <string>
 #include <vector>
 
 #include "alloc_counter.hpp"
@@ -40,10 +41,17 @@ class FakePipeline : public Pipeline {
     link::add_object(out, 2, Pose{}, 0.3f, Vec3f::Zero(), Vec3f::UnitZ());
     return true;
   }
-  bool start_pair_calibration(const char*, const char*, const char** why) override {
-    *why = "no";
-    return false;
+  // xtion -> tof "calibrates" to a fixed mounting; anything else is refused.
+  bool calibrate_pair(const char* from, const char* to, PairCalibrationReport& out, const char** why) override {
+    if (std::string(from) != "xtion" || std::string(to) != "tof") {
+      *why = "scene is a single plane";
+      return false;
+    }
+    out.T_from_to.tq[0] = 0.057f;
+    return true;
   }
+  int calibrations_seen = 0;
+  void calibration_changed(const CalibrationData&) override { ++calibrations_seen; }
   PipelineStats stats() const override {
     PipelineStats s;
     s.frames = frames;
@@ -60,7 +68,11 @@ class FakePipeline : public Pipeline {
 
 class FakeStorage : public CalibrationStorage {
  public:
-  bool save(const CalibrationData&, char*, size_t) override { return true; }
+  int saves = 0;
+  bool save(const CalibrationData&, char*, size_t) override {
+    ++saves;
+    return true;
+  }
   bool load(CalibrationData&, char*, size_t) override { return true; }
 };
 
@@ -184,6 +196,32 @@ TEST(RuntimeStates, CalibSetNamesSensorsFlangeAndBin) {
   CHECK_EQUAL(0.3f, d.T_world_bin.tq[2]);
   CHECK(r.rt.calib_reset().code == ConsoleError::kOk);
   CHECK_EQUAL(0, r.rt.calibration().pair_count);
+}
+
+class TextSink : public ConsoleWriter {
+ public:
+  std::string text;
+  void write(const char* s, size_t n) override { text.append(s, n); }
+};
+
+// calib fuse: the pipeline's result goes into the calibration as the pair (from, to), is shown
+// with its uncertainty and saved; a refusal is an ERR with the pipeline's reason and changes nothing.
+TEST(RuntimeStates, CalibFuseStoresAndSavesThePair) {
+  static Rig r;
+  TextSink out;
+  const CmdResult bad = r.rt.calib_fuse("xtion", "laser", out);
+  CHECK(bad.code == ConsoleError::kFailed);
+  STRCMP_EQUAL("scene is a single plane", bad.message);
+  CHECK_EQUAL(0, r.rt.calibration().pair_count);
+  CHECK_EQUAL(0, r.storage.saves);
+  CHECK(r.rt.calib_fuse("xtion", "tof", out).code == ConsoleError::kOk);
+  const SensorPair* p = calib_find_pair(r.rt.calibration(), "xtion", "tof");
+  CHECK(p != nullptr);
+  CHECK_EQUAL(0.057f, p->T_from_to.tq[0]);
+  CHECK_EQUAL(1, r.storage.saves);
+  CHECK(r.pipe.calibrations_seen >= 1);
+  CHECK(out.text.find("T_xtion_tof: t 0.0570") != std::string::npos);
+  CHECK(out.text.find("uncertainty (1 sigma, tof frame)") != std::string::npos);
 }
 
 TEST(RuntimeStates, SteadyStateDoesNotAllocate) {

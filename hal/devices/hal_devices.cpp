@@ -52,8 +52,32 @@ bool HalDevices::known_pose(int i, uint32_t sequence, Pose& T_world_cam) const {
     T_world_cam = sim_cameras_[std::size_t(i)]->pose_of(sequence);
     return true;
   }
-  if (replay_cameras_[std::size_t(i)] != nullptr) return replay_cameras_[std::size_t(i)]->last_pose(T_world_cam);
+  if (replay_cameras_[std::size_t(i)] != nullptr) return replay_cameras_[std::size_t(i)]->pose_of(sequence, T_world_cam);
   return false;
+}
+
+bool HalDevices::scanner_axis(Pose& T_world_axis0, Vec3f& axis_world) const {
+  if (scanner_ == nullptr || !has_scanner_axis_) return false;
+  T_world_axis0 = scanner_axis0_;
+  axis_world = scanner_axis_;
+  return true;
+}
+
+bool HalDevices::flange_pose(int i, uint32_t sequence, Pose& T_world_flange) const {
+  if (i < 0 || i >= int(cameras_.size())) return false;
+  if (sim_cameras_[std::size_t(i)] != nullptr) {
+    const SimDepthCamera& c = *sim_cameras_[std::size_t(i)];
+    T_world_flange = c.pose_of(sequence) * c.config().T_rig_cam.inverse();
+    return true;
+  }
+  if (replay_cameras_[std::size_t(i)] != nullptr) return replay_cameras_[std::size_t(i)]->pose_of(sequence, T_world_flange);
+  return false;
+}
+
+bool HalDevices::sim_mounting(int i, Pose& T_rig_cam) const {
+  if (i < 0 || i >= int(cameras_.size()) || sim_cameras_[std::size_t(i)] == nullptr) return false;
+  T_rig_cam = sim_cameras_[std::size_t(i)]->config().T_rig_cam;
+  return true;
 }
 
 const char* HalDevices::built_backends() {
@@ -74,7 +98,7 @@ const char* HalDevices::built_backends() {
 }
 
 bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override,
-                       bool replay_loop) {
+                       bool replay_loop, double replay_speed) {
   owned_->sim_monitor.reset(new SimDeviceMonitor(clock));
   monitor_ = owned_->sim_monitor.get();
   bool any_usb = false;
@@ -110,7 +134,7 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
           err = where + ": replay: " + e;
           return false;
         }
-        ReplayDepthCamera* rc = new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, replay_loop);
+        ReplayDepthCamera* rc = new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, replay_loop, replay_speed);
         cam.reset(rc);
         replay_cam = rc;
         owned_->sequences.push_back(std::move(seq));
@@ -196,7 +220,19 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
         err = where + ": replay: " + err;
         return false;
       }
-      owned_->scanner.reset(new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock));
+      owned_->scanner.reset(new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock, replay_speed));
+      // The axis as the replay reports positions: from the first to the last recorded pose.
+      std::size_t first = scan->has_pose.size(), last = 0;
+      for (std::size_t p = 0; p < scan->has_pose.size(); ++p)
+        if (scan->has_pose[p]) {
+          if (first == scan->has_pose.size()) first = p;
+          last = p;
+        }
+      if (first < last && (scan->T_world_sensor[last].t - scan->T_world_sensor[first].t).norm() > 1e-6f) {
+        scanner_axis0_ = scan->T_world_sensor[first];
+        scanner_axis_ = (scan->T_world_sensor[last].t - scan->T_world_sensor[first].t).normalized();
+        has_scanner_axis_ = true;
+      }
       owned_->line_scan = std::move(scan);
     } else if (sc.backend == io::ScannerBackend::kSim) {
       const io::BoardPin* pin = sc.trigger_pin.empty() ? nullptr : board.find_pin(sc.trigger_pin);
@@ -217,7 +253,11 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
       // The robot moves the scanner at 0.1 m/s back and forth over the bin's 0.3 m (bin_rig_a's
       // laser path starts at the bin's -y wall).
       owned_->axis.reset(new SimLinearAxis(clock.now_us(), 0.0, 0.1, 0.299));
-      owned_->scanner.reset(new SimLineScanner(sim_laser_config(), scene_, *owned_->trigger, *owned_->axis));
+      const SimLineScannerConfig lc = sim_laser_config();
+      owned_->scanner.reset(new SimLineScanner(lc, scene_, *owned_->trigger, *owned_->axis));
+      scanner_axis0_ = lc.T_world_axis0;
+      scanner_axis_ = lc.axis_world;
+      has_scanner_axis_ = true;
     }
     scanner_ = owned_->scanner.get();
   }

@@ -34,8 +34,9 @@ class HalDevices {
   //! \param board parsed hal.toml  \param clock the HAL clock  \param err names the failing camera
   //! \param replay_override a data set folder: every camera replays its sensor from it instead
   //! \param replay_loop replayed recordings start again after their last frame (else end of stream)
+  //! \param replay_speed playback speed of replayed cameras (1: the recorded rate; 0.5: half of it)
   bool build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override = "",
-             bool replay_loop = true);
+             bool replay_loop = true, double replay_speed = 1.0);
   int camera_count() const { return int(cameras_.size()); }
   //! Camera i as the runtime uses it (inside its FaultCamera).
   //! \param i index in hal.toml order
@@ -45,11 +46,28 @@ class HalDevices {
   //! The line scanner, or null when the board has none.
   LineScanner* scanner() { return scanner_; }
   //! The true pose of a frame of camera i when its backend knows it (sim: the simulated rig's
-  //! motion; replay: the recording's ground truth of the frame delivered last); edgefused uses it
+  //! motion; replay: the recording's ground truth of that frame); edgefused uses it
   //! in place of tracking when configured. \return false for real devices or without truth
-  //! \param i camera index  \param sequence the frame's device sequence number (sim)
+  //! \param i camera index  \param sequence the frame's device sequence number
   //! \param T_world_cam receives the camera-to-world pose
   bool known_pose(int i, uint32_t sequence, Pose& T_world_cam) const;
+  //! The robot's flange pose at frame `sequence` of camera i where the simulation stands in for a
+  //! robot: the sim backend's robot carries the rig with the flange at the rig's origin (its
+  //! pose is the camera's pose times the camera's mounting inverted); a replayed rig set's rig
+  //! frame is its reference sensor's, so the frame's ground truth. Real devices: no robot pose.
+  //! \param i camera index  \param sequence the frame's sequence number  \param T_world_flange receives it
+  //! \return false when no robot pose is available
+  bool flange_pose(int i, uint32_t sequence, Pose& T_world_flange) const;
+  //! Mounting of camera i on the rig when its backend knows it (sim: the simulated rig's mounting;
+  //! edgefused falls back to it when no calibration gives the camera's extrinsics).
+  //! \param i camera index  \param T_rig_cam receives the camera-to-rig pose  \return false otherwise
+  bool sim_mounting(int i, Pose& T_rig_cam) const;
+  //! Where the line scanner's axis carries it (sim: the simulated axis; replay: the line through
+  //! the recording's first and last poses): the sensor pose at axis position 0 and the unit
+  //! direction of travel, so a profile's pose is T_world_axis0 moved by axis * position.
+  //! \param T_world_axis0 receives the pose at position 0  \param axis_world receives the direction
+  //! \return false without a scanner or when the backend does not know its axis
+  bool scanner_axis(Pose& T_world_axis0, Vec3f& axis_world) const;
   //! Names of the backends compiled into this build ("sim replay v4l2 ...").
   static const char* built_backends();
 
@@ -64,6 +82,9 @@ class HalDevices {
   std::vector<std::unique_ptr<FaultCamera>> faults_;
   DeviceMonitor* monitor_ = nullptr;
   LineScanner* scanner_ = nullptr;
+  bool has_scanner_axis_ = false;
+  Pose scanner_axis0_;
+  Vec3f scanner_axis_ = Vec3f::UnitY();
 };
 
 }  // namespace edgefuse::hal

@@ -6,8 +6,9 @@
 
 namespace edgefuse::hal {
 
-ReplayDepthCamera::ReplayDepthCamera(const io::DepthSequence& seq, ReplayRate rate, Clock& clock, bool loop)
-    : seq_(seq), rate_(rate), clock_(clock), loop_(loop) {}
+ReplayDepthCamera::ReplayDepthCamera(const io::DepthSequence& seq, ReplayRate rate, Clock& clock, bool loop,
+                                     double speed)
+    : seq_(seq), rate_(rate), clock_(clock), loop_(loop), speed_(speed > 0 ? speed : 1.0) {}
 
 bool ReplayDepthCamera::mode(int index, DepthMode& m) const {
   if (index != 0) return false;
@@ -47,12 +48,12 @@ HalStatus ReplayDepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms) 
     // One nominal frame period after the last frame, the recording starts again.
     const double span = seq_.frames.back().stamp_s - seq_.frames.front().stamp_s;
     const double period = seq_.frames.size() > 1 ? span / double(seq_.frames.size() - 1) : 0.033;
-    loop_offset_us_ += uint64_t(std::llround((span + period) * 1e6));
+    loop_offset_us_ += uint64_t(std::llround((span + period) / speed_ * 1e6));
     index_ = 0;
   }
   const io::FrameRef& ref = seq_.frames[index_];
   const double offset_s = ref.stamp_s - seq_.frames.front().stamp_s;
-  const uint64_t stamp_us = start_us_ + loop_offset_us_ + uint64_t(std::llround(offset_s * 1e6));
+  const uint64_t stamp_us = start_us_ + loop_offset_us_ + uint64_t(std::llround(offset_s / speed_ * 1e6));
   if (rate_ == ReplayRate::kRecorded) {
     const uint64_t now = clock_.now_us();
     if (stamp_us > now) {
@@ -65,6 +66,9 @@ HalStatus ReplayDepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms) 
     }
   }
   ++index_;
+  // Numbered by position in the recording: a frame that fails to load leaves a gap (counted by the
+  // acquisition checks) and pose_of(sequence) stays exact.
+  const uint32_t sequence = sequence_++;
   const std::size_t n = std::size_t(seq_.intr.width) * std::size_t(seq_.intr.height);
   if (!io::load_depth(ref, seq_.intr, depth_, error_)) return HalStatus::kBadFrame;
   std::memcpy(frame.depth, depth_.data(), n * sizeof(uint16_t));
@@ -84,7 +88,7 @@ HalStatus ReplayDepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms) 
   frame.height = seq_.intr.height;
   frame.depth_scale = seq_.intr.depth_scale;
   frame.stamp_us = stamp_us;
-  frame.sequence = sequence_++;
+  frame.sequence = sequence;
   delivered_ = true;
   return HalStatus::kOk;
 }

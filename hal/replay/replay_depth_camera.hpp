@@ -21,7 +21,10 @@ class ReplayDepthCamera final : public DepthCamera {
  public:
   //! \param seq the opened sequence (kept by reference)  \param rate pacing  \param clock time base
   //! \param loop start again after the last frame (else kEndOfStream)
-  ReplayDepthCamera(const io::DepthSequence& seq, ReplayRate rate, Clock& clock, bool loop = false);
+  //! \param speed kRecorded: playback speed (0.5: slow motion at half the recorded rate, stamps
+  //! spaced accordingly)
+  ReplayDepthCamera(const io::DepthSequence& seq, ReplayRate rate, Clock& clock, bool loop = false,
+                    double speed = 1.0);
 
   const char* name() const override { return seq_.sensor_name.c_str(); }
   int mode_count() const override { return 1; }
@@ -40,6 +43,17 @@ class ReplayDepthCamera final : public DepthCamera {
     T_world_cam = seq_.frames[last_index()].T_world_cam;
     return true;
   }
+  //! Ground-truth pose of the frame with device sequence number `sequence` (frame.sequence counts
+  //! the recording's frames, loops included, so a frame the caller holds still finds its truth when
+  //! a device thread has delivered newer ones). \return false without truth
+  //! \param sequence the frame's sequence number  \param T_world_cam receives the camera-to-world pose
+  bool pose_of(uint32_t sequence, Pose& T_world_cam) const {
+    if (seq_.frames.empty()) return false;
+    const io::FrameRef& f = seq_.frames[sequence % seq_.frames.size()];
+    if (!f.has_pose) return false;
+    T_world_cam = f.T_world_cam;
+    return true;
+  }
   //! Index in the sequence of the frame delivered last.
   std::size_t last_index() const { return index_ == 0 ? 0 : index_ - 1; }
 
@@ -48,6 +62,7 @@ class ReplayDepthCamera final : public DepthCamera {
   ReplayRate rate_;
   Clock& clock_;
   bool loop_;
+  double speed_;
   bool running_ = false;
   bool delivered_ = false;  // a frame was delivered (last_index() names it)
   std::size_t index_ = 0;

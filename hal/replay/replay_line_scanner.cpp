@@ -5,8 +5,8 @@
 
 namespace edgefuse::hal {
 
-ReplayLineScanner::ReplayLineScanner(const io::LineScan& scan, ReplayRate rate, Clock& clock)
-    : scan_(scan), rate_(rate), clock_(clock) {}
+ReplayLineScanner::ReplayLineScanner(const io::LineScan& scan, ReplayRate rate, Clock& clock, double speed)
+    : scan_(scan), rate_(rate), clock_(clock), speed_(speed > 0 ? speed : 1.0) {}
 
 LineScannerInfo ReplayLineScanner::info() const {
   const io::LineScannerParams& p = scan_.sensor.line;
@@ -41,7 +41,7 @@ HalStatus ReplayLineScanner::next_profile(LineProfile& profile, uint32_t timeout
   if (profile.ranges_m == nullptr || profile.capacity_beams < beams) return HalStatus::kInvalidArgument;
   if (index_ >= scan_.profiles.size()) return HalStatus::kEndOfStream;
   const double offset_s = scan_.profiles.stamps_s[index_] - scan_.profiles.stamps_s[0];
-  const uint64_t stamp_us = start_us_ + uint64_t(std::llround(offset_s * 1e6));
+  const uint64_t stamp_us = start_us_ + uint64_t(std::llround(offset_s / speed_ * 1e6));
   if (rate_ == ReplayRate::kRecorded) {
     const uint64_t now = clock_.now_us();
     if (stamp_us > now) {

@@ -13,7 +13,8 @@ namespace edgefuse::hal {
 class ReplayLineScanner final : public LineScanner {
  public:
   //! \param scan the opened recording (kept by reference)  \param rate pacing  \param clock time base
-  ReplayLineScanner(const io::LineScan& scan, ReplayRate rate, Clock& clock);
+  //! \param speed kRecorded: playback speed (0.5: half the recorded rate)
+  ReplayLineScanner(const io::LineScan& scan, ReplayRate rate, Clock& clock, double speed = 1.0);
   const char* name() const override { return scan_.sensor.name.c_str(); }
   LineScannerInfo info() const override;
   HalStatus start() override;
@@ -24,6 +25,7 @@ class ReplayLineScanner final : public LineScanner {
   const io::LineScan& scan_;
   ReplayRate rate_;
   Clock& clock_;
+  double speed_;
   bool running_ = false;
   std::size_t index_ = 0;
   uint64_t start_us_ = 0;

@@ -57,6 +57,8 @@ class SimDepthCamera final : public DepthCamera {
   PinholeIntrinsics intrinsics() const override { return intr_; }
   HalStatus next_frame(DepthFrame& frame, uint32_t timeout_ms) override;
 
+  //! The camera model, its motion and its mounting on the rig.
+  const SimDepthCameraConfig& config() const { return config_; }
   //! True camera-to-world pose of frame `sequence` (for tests and ground truth).
   //! \param sequence frame number since start
   Pose pose_of(uint32_t sequence) const;

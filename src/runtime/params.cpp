@@ -43,10 +43,17 @@ const ParamDef kParamDefs[kParamCount] = {
      "a PLY model or a folder of them ('' : a replayed rig set's models, else model-free segments)"},
     {"filters.bilateral", ParamType::kBool, 0, 1, "false", false,
      "bilateral depth filter before integration (the sensor kind's masks always run)"},
-    {"tracking.poses", ParamType::kString, 0, kParamTextMax, "known", false,
-     "'known' (the sim / replay backend's true poses) or 'tracked' (ICP against the raycast model)"},
+    {"tracking.poses", ParamType::kString, 0, kParamTextMax, "auto", false,
+     "'auto' (known when the backend knows the poses, else tracked), 'known' (the sim / replay backend's true "
+     "poses) or 'tracked' (ICP against the raycast model)"},
     {"tracking.push_every_frame", ParamType::kBool, 0, 1, "false", false,
      "tracked: integrate every frame (else when the sensor moved 1 cm or 1 degree)"},
+    // edgefused: every sensor feeds the map (issue 7, feat/edgefused3)
+    {"sensors.fuse", ParamType::kString, 0, kParamTextMax, "", false,
+     "cameras feeding the map, e.g. 'xtion,tof' (the first is the reference whose poses are known or tracked); "
+     "'' : hal.toml's first camera"},
+    {"sensors.replay_speed", ParamType::kFloat, 0.05, 10, "1", false,
+     "replayed cameras play at this multiple of the recorded rate (0.5: slow motion, for a loaded machine)"},
 };
 
 namespace {

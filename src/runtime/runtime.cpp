@@ -124,15 +124,41 @@ CmdResult Runtime::status(ConsoleWriter& out) {
   out.line("tracking %s", tracking_text(st.tracking));
   out.line("results %u heartbeats %u map %s", unsigned(result_seq_), unsigned(heartbeat_seq_),
            pipeline_.map_empty() ? "empty" : "filled");
-  for (int i = 0; i < pipeline_.device_count(); ++i)
-    out.line("device %s %s", pipeline_.device_name(i), pipeline_.device_state(i));
+  // A device's state may run over several lines ('\n'): the first follows its name, the rest indent.
+  for (int i = 0; i < pipeline_.device_count(); ++i) {
+    const char* s = pipeline_.device_state(i);
+    const char* nl = std::strchr(s, '\n');
+    out.line("device %s %.*s", pipeline_.device_name(i), int(nl ? nl - s : int(std::strlen(s))), s);
+    while (nl != nullptr) {
+      s = nl + 1;
+      nl = std::strchr(s, '\n');
+      out.line("  %.*s", int(nl ? nl - s : int(std::strlen(s))), s);
+    }
+  }
   return CmdResult::ok();
 }
 
 CmdResult Runtime::calib_fuse(const char* from, const char* to, ConsoleWriter& out) {
+  if (state_ == RuntimeState::kLocalize || state_ == RuntimeState::kReport)
+    return CmdResult::error(ConsoleError::kWrongState, "localising: wait for the result");
   const char* why = "";
-  if (!pipeline_.start_pair_calibration(from, to, &why)) return CmdResult::error(ConsoleError::kFailed, why);
-  out.line("calibrating %s against %s: move the rig; the result shows in calib show", to, from);
+  PairCalibrationReport r;
+  if (!pipeline_.calibrate_pair(from, to, r, &why)) return CmdResult::error(ConsoleError::kFailed, why);
+  if (!calib_set_pair(calib_, from, to, r.T_from_to))
+    return CmdResult::error(ConsoleError::kFailed, "calibration table full");
+  char what[48];
+  std::snprintf(what, sizeof(what), "T_%s_%s", from, to);
+  print_pose(out, what, r.T_from_to);
+  out.line("uncertainty (1 sigma, %s frame): rot %.4f %.4f %.4f deg, trans %.3f %.3f %.3f mm", to,
+           double(r.sigma_rot_deg[0]), double(r.sigma_rot_deg[1]), double(r.sigma_rot_deg[2]),
+           double(r.sigma_trans_mm[0]), double(r.sigma_trans_mm[1]), double(r.sigma_trans_mm[2]));
+  out.line("fit: rms %.2f mm, inliers %.2f, %d correspondences; %.2f mm / %.3f deg from the guess (%s)",
+           double(r.rms_mm), double(r.inlier_ratio), r.correspondences, double(r.moved_mm), double(r.moved_deg),
+           r.guess_source);
+  pipeline_.calibration_changed(calib_);
+  // Persisted at once (as `calib save`): a calibration worth running is worth keeping.
+  if (!storage_.save(calib_, text_, sizeof(text_))) return CmdResult::error(ConsoleError::kStorage, text_);
+  out.line("saved");
   return CmdResult::ok();
 }
 
@@ -159,6 +185,7 @@ CmdResult Runtime::calib_set(const char* sensor, const float tq[7]) {
   // Two names that are not sensors: the rig on the flange (hand-eye) and the bin in the world.
   if (!std::strcmp(sensor, "flange")) {
     calib_.T_flange_rig = p;
+    pipeline_.calibration_changed(calib_);
     return CmdResult::ok();
   }
   if (!std::strcmp(sensor, "bin")) {
@@ -173,6 +200,7 @@ CmdResult Runtime::calib_set(const char* sensor, const float tq[7]) {
   }
   if (!calib_set_pair(calib_, "rig", sensor, p))
     return CmdResult::error(ConsoleError::kFailed, "calibration table full");
+  pipeline_.calibration_changed(calib_);
   return CmdResult::ok();
 }
 
@@ -209,11 +237,13 @@ CmdResult Runtime::calib_load() {
   CalibrationData d;
   if (!storage_.load(d, text_, sizeof(text_))) return CmdResult::error(ConsoleError::kStorage, text_);
   calib_ = d;
+  pipeline_.calibration_changed(calib_);
   return CmdResult::ok();
 }
 
 CmdResult Runtime::calib_reset() {
   calib_ = CalibrationData{};
+  pipeline_.calibration_changed(calib_);
   return CmdResult::ok();
 }
 

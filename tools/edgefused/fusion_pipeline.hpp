@@ -1,20 +1,39 @@
-// The real pipeline of edgefused: the board's first depth camera (board/<name>/hal.toml, through
-// the HAL; host-sim: the sim backend, or a rig set's replay with sensors.replay) -> the sensor
-// kind's depth pre-filters -> pose -> integration into the static TSDF -> on LOCALIZE: surface
-// extraction, bin removal and model-based localisation (PPF + ICP + free-space verification) or,
-// without models, model-free segments -> a LocalizationResult for the link.
+// The real pipeline of edgefused: the board's depth cameras (board/<name>/hal.toml, through the
+// HAL; host-sim: the sim backend, or a rig set's replay with sensors.replay), each streamed by its
+// own acquisition thread (hal/acquisition: fixed frame pool, SPSC rings, newest-frame policy,
+// sanity checks, stall -> reopen with back-off, unplug/replug) -> the sensor kind's depth
+// pre-filters -> pose -> integration into the static TSDF -> on LOCALIZE: surface extraction, bin
+// removal and model-based localisation (PPF + ICP + free-space verification) or, without models,
+// model-free segments -> a LocalizationResult for the link.
 //
-// Poses (tracking.poses): "known" = the backend's known poses (sim: the simulated rig's motion;
+// Sensors (sensors.fuse): the cameras that feed the map; the first is the reference whose poses
+// are known or tracked. Another camera is integrated at the reference pose of the frame nearest in
+// time (within kPairWindowUs) times its extrinsics T_ref_cam: the calibration store's pair (ref,
+// cam), else the store's rig mountings of both, else the replayed rig set's extrinsics.txt, else
+// the sim backend's mounting. With more than one camera in the map each pixel's weight follows its
+// sensor's noise model (trust maps, as `edgefuse fuse --sensors`). Every camera streams (and is
+// counted in `status`) whether it feeds the map or not, so `calib fuse` can use its newest frame.
+// The line scanner (sensors.fuse lists it by name) streams on its own thread too; every profile is
+// integrated (integrate_profile) at the pose its axis position gives along the axis the backend
+// reports (HalDevices::scanner_axis), once the reference camera has placed the map.
+//
+// Poses (tracking.poses): "auto" (default) = "known" when the reference camera's backend knows its
+// poses (sim, a replay with ground truth), else "tracked" (a real camera); "known" = the backend's known poses (sim: the simulated rig's motion;
 // replay: the recording's ground truth), every frame pushed; "tracked" = the tracking module (ICP
 // against the model raycast at the last good pose, push after 1 cm / 1 degree), starting at the
-// backend's known pose of the map's first frame (else the identity). With "known", a camera without
+// pose composed from the robot's flange pose at the map's first frame, the hand-eye mounting
+// T_flange_rig of the calibration store and the reference camera's mounting on the rig T_rig_ref
+// (calibration store, else the sim mounting, else the identity); without a robot pose (a real
+// device, no robot link yet) the identity. With "known", a camera without
 // known poses (a real device) has its frames counted as drops and says so once.
 //
 // Memory: everything is allocated in init() (arena carve as CoreSetup does, models, worker threads,
 // the localisation thread); step() and the localisation run without the heap (the replay backend's
 // PNG decoder is host-only and allocates inside libpng).
 //
-// Threads: step() runs in edgefused's main loop and integrates at most one frame per call; the
+// Threads: one acquisition thread per camera (started by scan start, stopped by scan stop: the
+// replay of a recording begins with the scan); step() runs in edgefused's main loop, takes each
+// camera's newest frame and integrates at most one frame per camera per call; the
 // localisation (hundreds of milliseconds) runs on its own thread so the console and the link stay
 // served; no frame is integrated while it reads the volume.
 #pragma once
@@ -25,12 +44,17 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
+#include "camera_stream.hpp"
+#include "scanner_stream.hpp"
 #include "core_setup.hpp"
 #include "edgefuse/filters/depth_filter_chain.hpp"
 #include "edgefuse/localize/localizer.hpp"
 #include "edgefuse/runtime/pipeline.hpp"
 #include "edgefuse/tracking/tracker.hpp"
+#include "edgefuse/io/rig.hpp"
+#include "edgefuse/runtime/calibration.hpp"
 #include "hal/devices/hal_devices.hpp"
 #include "worker_pool.hpp"
 
@@ -45,7 +69,10 @@ struct FusionPipelineConfig {
   bool bilateral = false;   //!< bilateral filter on
   float min_score = 0.3f;   //!< localiser's own acceptance (the runtime filters again by its param)
   bool tracked = false;     //!< poses by ICP tracking (else the backend's known poses)
+  bool auto_poses = false;  //!< known poses when the reference camera's backend has them, else tracked
   bool push_every_frame = false;  //!< tracked: integrate every frame (else after 1 cm / 1 degree)
+  double replay_speed = 1;  //!< replayed cameras' playback speed (1: the recorded rate)
+  std::string fuse;         //!< cameras feeding the map, "a,b" (first: reference); "" : hal.toml's first
 };
 
 class FusionPipeline final : public runtime::Pipeline {
@@ -65,10 +92,12 @@ class FusionPipeline final : public runtime::Pipeline {
   void step(uint64_t now_us) override;
   bool start_localization(uint64_t now_us, const char** why) override;
   bool poll_localization(link::LocalizationResult& out) override;
-  bool start_pair_calibration(const char* from, const char* to, const char** why) override;
+  bool calibrate_pair(const char* from, const char* to, runtime::PairCalibrationReport& out,
+                      const char** why) override;
+  void calibration_changed(const runtime::CalibrationData& d) override;
   runtime::PipelineStats stats() const override { return stats_; }
   bool map_empty() const override { return map_frames_ == 0; }
-  int device_count() const override { return devices_.camera_count(); }
+  int device_count() const override { return camera_count_ + (scanner_.name.empty() ? 0 : 1); }
   const char* device_name(int i) const override;
   const char* device_state(int i) const override;
   int model_count() const override { return loc_.model_count(); }
@@ -76,25 +105,49 @@ class FusionPipeline final : public runtime::Pipeline {
 
   //! Frames integrated into the current map.
   uint32_t map_frames() const { return map_frames_; }
+  //! Where a tracked map starts: T_world_flange (robot pose at the reference camera's frame
+  //! `sequence`) * T_flange_rig (hand-eye, calibration) * T_rig_ref; the identity without a robot pose.
+  //! \param sequence the first frame's sequence number
+  Pose tracking_start_pose(uint32_t sequence);
+  //! The board's devices (tests inject faults through their FaultCameras).
+  hal::HalDevices& devices() { return devices_; }
+  //! Camera i's stream (counters, extrinsics); i < device_count().
+  const CameraStream& camera_stream(int i) const { return cams_[i]; }
+  //! The line scanner's stream (name "" without one).
+  const ScannerStream& scanner_stream() const { return scanner_; }
+
+  //! Largest stamp difference between a camera's frame and the reference frame whose pose it takes.
+  static constexpr uint64_t kPairWindowUs = 40000;
 
  private:
-  void integrate_frame(uint64_t now_us);
+  static constexpr int kCamerasMax = 3;
+  void process_reference(uint64_t now_us);
+  void process_other(CameraStream& c);
+  void process_profile(const hal::LineProfile& p);
+  void drain_profiles();
+  void update_mounts();
+  void update_drops();
   void centre_volume(const DepthFrame& frame, const Pose& T_world_cam);
   void localize_thread();
   void run_localization();
 
   FusionPipelineConfig config_;
   hal::HalDevices devices_;
-  hal::DepthFrame frame_;  // points at static storage (fusion_pipeline.cpp)
-  PinholeIntrinsics intr_;
+  CameraStream cams_[kCamerasMax];
+  ScannerStream scanner_;
+  int camera_count_ = 0;
+  int order_[kCamerasMax] = {0, 1, 2};  // cams_ indices: the reference first, then the other map cameras
+  int fuse_count_ = 0;                  // cameras feeding the map (order_[0..fuse_count_))
+  std::vector<io::SensorExtrinsic> rig_extrinsics_;  // the replayed rig set's extrinsics.txt
+  runtime::CalibrationData calib_;
+  bool use_trust_ = false;
+  PinholeIntrinsics intr_;  // the reference camera's
   cli::CoreSetup core_;
   cli::FuseSettings fuse_;
   DepthFilterChain<real_t> filters_;
   Localizer loc_;
   LocalizeParams loc_params_;
   Tracker tracker_;
-  FramePyramid<real_t> pyramid_;
-  IcpWorkspace<real_t> icp_ws_;
   uint32_t lost_frames_ = 0;
   float track_err_m_ = 0;
   WorkerPool pool_;
@@ -103,15 +156,16 @@ class FusionPipeline final : public runtime::Pipeline {
   bool mapping_ = false;
   bool clear_pending_ = true;  // the volume is cleared and re-centred on the next frame
   uint32_t map_frames_ = 0;
-  bool have_sequence_ = false;
-  uint32_t last_sequence_ = 0;
+  uint32_t pipeline_drops_ = 0;  // frames taken but not integrated (filter, pose or integration failed)
+  bool have_ref_pose_ = false;
+  Pose ref_pose_;             // the reference camera's pose at its last processed frame
+  uint64_t ref_stamp_us_ = 0;  // that frame's capture stamp
   bool have_still_anchor_ = false;
   Pose still_anchor_;  //!< pose where the current still period began (still detection)
   uint64_t last_frame_us_ = 0;
   uint64_t last_capture_us_ = 0;
   Vec3f view_sum_ = Vec3f::Zero();
   runtime::PipelineStats stats_;
-  const char* camera_state_ = "stopped";
   bool warned_no_pose_ = false;
 
   // localisation thread

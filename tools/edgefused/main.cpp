@@ -236,12 +236,15 @@ int main(int argc, char** argv) {
     fc.trunc_m = float(g_params.get_number(runtime::kTsdfTruncM));
     fc.bilateral = g_params.get_bool(runtime::kFiltersBilateral);
     const std::string poses = g_params.get_text(runtime::kTrackingPoses);
-    if (poses != "known" && poses != "tracked") {
-      std::fprintf(stderr, "edgefused: tracking.poses = '%s' is not one of known|tracked\n", poses.c_str());
+    if (poses != "known" && poses != "tracked" && poses != "auto") {
+      std::fprintf(stderr, "edgefused: tracking.poses = '%s' is not one of auto|known|tracked\n", poses.c_str());
       return 1;
     }
     fc.tracked = poses == "tracked";
+    fc.auto_poses = poses == "auto";
     fc.push_every_frame = g_params.get_bool(runtime::kTrackingPushEveryFrame);
+    fc.fuse = g_params.get_text(runtime::kSensorsFuse);
+    fc.replay_speed = g_params.get_number(runtime::kSensorsReplaySpeed);
     if (!g_fusion.init(fc, err)) {
       std::fprintf(stderr, "edgefused: %s\n", err.c_str());
       return 1;

@@ -73,8 +73,8 @@ bool SimPipeline::poll_localization(link::LocalizationResult& out) {
   return true;
 }
 
-bool SimPipeline::start_pair_calibration(const char*, const char*, const char** why) {
-  *why = "rigid-pair calibration needs the fusion pipeline (not wired into edgefused yet)";
+bool SimPipeline::calibrate_pair(const char*, const char*, runtime::PairCalibrationReport&, const char** why) {
+  *why = "rigid-pair calibration needs sensor data: pipeline.source = fusion";
   return false;
 }
 

@@ -24,7 +24,8 @@ class SimPipeline : public runtime::Pipeline {
   void step(uint64_t now_us) override;
   bool start_localization(uint64_t now_us, const char** why) override;
   bool poll_localization(link::LocalizationResult& out) override;
-  bool start_pair_calibration(const char* from, const char* to, const char** why) override;
+  bool calibrate_pair(const char* from, const char* to, runtime::PairCalibrationReport& out,
+                      const char** why) override;
   runtime::PipelineStats stats() const override { return stats_; }
   bool map_empty() const override { return map_frames_ == 0; }
   int device_count() const override { return 3; }

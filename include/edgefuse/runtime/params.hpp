@@ -49,6 +49,9 @@ enum ParamId : int {
   kFiltersBilateral,
   kTrackingPoses,
   kTrackingPushEveryFrame,
+  // edgefused: every sensor feeds the map (issue 7, feat/edgefused3)
+  kSensorsFuse,
+  kSensorsReplaySpeed,
   kParamCount
 };
 

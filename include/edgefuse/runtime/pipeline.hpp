@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "edgefuse/link/messages.hpp"
+#include "edgefuse/runtime/calibration.hpp"
 
 namespace edgefuse::runtime {
 
@@ -17,6 +18,20 @@ struct PipelineStats {
   float fps = 0;        //!< recent frame rate
   edgefuse_link_TrackingState tracking = edgefuse_link_TrackingState_TRACKING_OFF;
   uint64_t still_since_us = 0;  //!< when the rig stopped moving (0: moving or unknown)
+};
+
+//! Outcome of `calib fuse <from> <to>`: the mounting of `to` in `from`'s frame and how well the
+//! data determined it.
+struct PairCalibrationReport {
+  CalibPose T_from_to;                 //!< pose of `to` in `from`'s frame
+  float sigma_rot_deg[3] = {0, 0, 0};  //!< 1 sigma about x, y, z (`to`'s frame; covariance, a lower bound)
+  float sigma_trans_mm[3] = {0, 0, 0}; //!< 1 sigma along x, y, z
+  float rms_mm = 0;                    //!< point-to-plane RMS of the inliers
+  float inlier_ratio = 0;              //!< inliers / candidates
+  int correspondences = 0;             //!< inliers
+  float moved_mm = 0;                  //!< distance from the starting guess
+  float moved_deg = 0;                 //!< rotation from the starting guess
+  const char* guess_source = "";       //!< where the starting guess came from
 };
 
 class Pipeline {
@@ -35,8 +50,15 @@ class Pipeline {
   //! True once the started localisation finished; fills `out` (objects, status, capture stamp;
   //! the runtime sets the sequence number).
   virtual bool poll_localization(link::LocalizationResult& out) = 0;
-  //! Starts the rigid-pair calibration of `to` against the map of `from`. \return false + why
-  virtual bool start_pair_calibration(const char* from, const char* to, const char** why) = 0;
+  //! Rigid-pair calibration of `to` against the map filled by `from` (paper Fig. 6) on the live
+  //! map and `to`'s newest frame; runs to completion (a fraction of a second).
+  //! \param from the map's sensor  \param to the sensor to register  \param out the result
+  //! \param why the refusal's reason (unknown sensor, empty map, scene does not constrain the pose)
+  //! \return false when refused
+  virtual bool calibrate_pair(const char* from, const char* to, PairCalibrationReport& out, const char** why) = 0;
+  //! The calibration changed (loaded, set, reset, calibrated): extrinsics apply from the next frame.
+  //! \param d the runtime's calibration
+  virtual void calibration_changed(const CalibrationData& d) { (void)d; }
   virtual PipelineStats stats() const = 0;
   virtual bool map_empty() const = 0;
   virtual int device_count() const = 0;

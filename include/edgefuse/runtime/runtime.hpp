@@ -45,7 +45,10 @@ class Runtime : public ConsoleService {
       : pipeline_(pipeline), params_(params), storage_(storage), link_(link) {}
 
   //! Sets the calibration loaded at start-up.
-  void set_calibration(const CalibrationData& d) { calib_ = d; }
+  void set_calibration(const CalibrationData& d) {
+    calib_ = d;
+    pipeline_.calibration_changed(calib_);
+  }
   const CalibrationData& calibration() const { return calib_; }
 
   //! Advances the pipeline and the state machine; sends due heartbeats and results.
