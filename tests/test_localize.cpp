@@ -37,7 +37,7 @@ ScenePoint g_scene[kScenePoints];
 uint64_t g_scratch[2 * kScenePoints];
 uint32_t g_grid_index[kScenePoints], g_grid_buckets[kGridBuckets + 1], g_sample[kScenePoints], g_queue[kScenePoints];
 int32_t g_labels[kScenePoints];
-uint16_t g_votes[kPpfPoints * kPpfAngleBins];
+uint16_t g_votes[kVoteAccumulators * kPpfPoints * kPpfAngleBins];
 PoseCandidate g_candidates[kHypotheses];
 LocalizedObject g_verified[kModels * kClustersPerModel], g_results[kObjects];
 

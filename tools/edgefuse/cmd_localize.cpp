@@ -33,6 +33,7 @@ const char* kUsage =
     "       edgefuse localize INPUT --segments [--max N] [--out labels.pcd]\n"
     "  options: [--sensor NAME | --sensors A,B,...] [--frames N] [--voxel M] [--volume N] [--threads N] [--no-walls] [--min-score S]\n"
     "           [--icp-iterations N] (per hypothesis, default 12)\n"
+    "           [--max-incidence DEG] (model surface seen more obliquely is not expected in the scene, default 75)\n"
     "           [--scene-out FILE.ply] (the scene after bin removal, for inspection)\n"
     "           [--seg-smooth DEG] [--seg-concave TOL] [--seg-radius M] [--seg-colour TOL]\n"
     "           (region growing, see localizer.hpp)\n"
@@ -43,6 +44,8 @@ const char* kUsage =
     "  trust, line scanners) into the one space that is localised in; the viewpoint is the first colour camera's;\n"
     "  with [--no-filter] [--no-trust] [--min-weight W] (as for `edgefuse fuse`).\n"
     "  Poses: one line per object `id tx ty tz qx qy qz qw score model` (T_world_object; id = picking rank).\n"
+    "  --check-truth (rig sets): also verifies every true object pose of objects.txt (at the truth and after ICP\n"
+    "  from it) as a hypothesis would be, to show why a known object is missed.\n"
     "  Segments: a PCD with a `label` field per input point (organised inputs keep width x height; 0 = none).\n";
 
 double cpu_ms(clockid_t clock = CLOCK_THREAD_CPUTIME_ID) {
@@ -81,8 +84,8 @@ int cmd_localize(int argc, char** argv) {
   }
   Args args;
   std::string err;
-  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
-                  {"segments", "no-walls", "no-filter", "no-trust"}, err) ||
+  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
+                  {"segments", "no-walls", "no-filter", "no-trust", "check-truth"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
     return 2;
@@ -113,7 +116,8 @@ int cmd_localize(int argc, char** argv) {
       !args.get_float("seg-concave", -1.0f, 1.0f, params.segment_concave_tol, err) ||
       !args.get_float("seg-radius", 0.001f, 0.1f, params.segment_radius_m, err) ||
       !args.get_int("seg-colour", 0, 765, params.segment_colour_tol, err) ||
-      !args.get_int("icp-iterations", 1, 100, params.icp_iterations, err)) {
+      !args.get_int("icp-iterations", 1, 100, params.icp_iterations, err) ||
+      !args.get_float("max-incidence", 1.0f, 90.0f, params.max_incidence_deg, err)) {
     std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
     return 2;
   }
@@ -362,6 +366,31 @@ int cmd_localize(int argc, char** argv) {
   }
   std::printf("%s=%zu candidates=%zu localize_cpu_ms=%.1f localize_proc_cpu_ms=%.1f localize_wall_ms=%.1f\n",
               segments ? "segments" : "objects", count, loc.last_candidates(), ms_cpu, ms_proc, ms_wall);
+  if (args.has("check-truth") && !segments) {  // diagnostics: the true poses through the same verification
+    io::RigSet set;
+    if (!is_dir(input) || !io::open_rig_set(input, set, err)) {
+      std::fprintf(stderr, "edgefuse localize: --check-truth needs a rig set: %s\n", err.empty() ? input.c_str() : err.c_str());
+      return 1;
+    }
+    for (const io::ObjectPose& o : set.objects) {
+      const io::RigObject* ro = set.rig.find_object(o.id);
+      if (!ro) continue;
+      const std::string base = ro->model.substr(ro->model.find_last_of('/') + 1);
+      for (int m = 0; m < loc.model_count(); ++m) {
+        if (base != loc.model(m).name) continue;
+        LocalizedObject at, refined;
+        loc.check_pose(m, o.T_world_object, params, false, at);
+        const bool ok = loc.check_pose(m, o.T_world_object, params, true, refined);
+        const Pose d = o.T_world_object.inverse() * refined.T_world_object;
+        const float ang = std::acos(std::min(1.0f, std::max(-1.0f, 0.5f * (d.R.trace() - 1.0f)))) * 57.29578f;
+        std::printf("truth %d %s: at truth score %.3f support %u residual %.2f mm free %.3f; after ICP%s score %.3f "
+                    "support %u free %.3f moved %.2f mm %.2f deg\n",
+                    o.id, base.c_str(), at.score, at.support, at.residual_m * 1e3, at.free_space, ok ? "" : " (failed)",
+                    refined.score, refined.support, refined.free_space,
+                    (refined.T_world_object.t - o.T_world_object.t).norm() * 1e3, ang);
+      }
+    }
+  }
   if (segments) {
     const std::string out = args.get("out", "labels.pcd");
     if (!write_segment_labels(out, loc, in_cloud, surface_count, buffers.points, err)) {

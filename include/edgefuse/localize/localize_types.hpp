@@ -30,6 +30,9 @@ inline constexpr int kPpfAngleBins = 30;          //!< 12 degree steps (Drost et
 inline constexpr uint32_t kPpfBuckets = 1u << 15; //!< hash buckets per model
 inline constexpr uint32_t kGridBuckets = 1u << 18;  //!< scene nearest-neighbour grid buckets
 inline constexpr int kClustersPerModel = 32;      //!< pose clusters refined and verified per model
+//! PPF vote accumulators (the references are voted in this many chunks, one accumulator each, over
+//! the caller's threads; a fixed count, so the chunking and the results do not depend on threads).
+inline constexpr int kVoteAccumulators = 4;
 
 //! One entry of a model's point pair feature table: the quantised feature (for collision checks),
 //! the model reference point and its angle alpha_m (quantised to int16 over [-pi, pi)).
