@@ -35,6 +35,9 @@ const char* kUsage =
     "           [--icp-iterations N] (per hypothesis, default 12)\n"
     "           [--max-incidence DEG] (model surface seen more obliquely is not expected in the scene, default 75)\n"
     "           [--scene-out FILE.ply] (the scene after bin removal, for inspection)\n"
+    "           [--bin FILE.toml] (the bin's floor pose and inner size from configuration instead of detection;\n"
+    "           [bin] pose = [tx, ty, tz, qx, qy, qz, qw] (T_world_bin, z up, origin at the inner floor's centre),\n"
+    "           inner_size_m = [x, y])\n"
     "           [--seg-smooth DEG] [--seg-concave TOL] [--seg-radius M] [--seg-colour TOL]\n"
     "           (region growing, see localizer.hpp)\n"
     "  INPUT: a rig set or depth-sequence folder (fused at its ground-truth poses), a single-frame folder\n"
@@ -84,7 +87,7 @@ int cmd_localize(int argc, char** argv) {
   }
   Args args;
   std::string err;
-  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
+  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
                   {"segments", "no-walls", "no-filter", "no-trust", "check-truth"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
@@ -128,6 +131,13 @@ int cmd_localize(int argc, char** argv) {
   }
   params.detect_walls = !args.has("no-walls");
   params.max_per_model = max_results;
+
+  BinGeometry bin_config;
+  const bool bin_from_config = args.has("bin");
+  if (bin_from_config && !read_bin_toml(args.get("bin"), bin_config, err)) {
+    std::fprintf(stderr, "edgefuse localize: --bin: %s\n", err.c_str());
+    return 2;
+  }
 
   // --- start-up: static buffers and models
   CoreBuffers buffers;
@@ -321,9 +331,11 @@ int cmd_localize(int argc, char** argv) {
   }
   (void)fused;
   const std::size_t before = loc.scene_count();
-  loc.remove_bin(params);
+  if (bin_from_config) loc.set_bin(bin_config, params);  // validated when read
+  else loc.remove_bin(params);
   const SceneContext& c = loc.context();
-  std::printf("bin: %s, %d walls; %zu of %zu scene points left\n", c.has_floor ? "floor found" : "no floor", c.walls,
+  std::printf("bin: %s, %d walls; %zu of %zu scene points left\n",
+              bin_from_config ? "from configuration" : c.has_floor ? "floor found" : "no floor", c.walls,
               loc.scene_count(), before);
   if (c.has_floor)
     std::printf("floor: up %.3f %.3f %.3f offset %.4f, centre %.3f %.3f %.3f, extent %.3f..%.3f along (%.2f %.2f %.2f), "

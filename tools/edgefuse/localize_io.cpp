@@ -1,5 +1,7 @@
 #include "localize_io.hpp"
 
+#include <toml++/toml.h>
+
 #include <Eigen/Eigenvalues>
 #include <atomic>
 #include <cmath>
@@ -206,6 +208,51 @@ ParallelFor pool_parallel_for(WorkerPool& pool) {
   pf.run = &pool_run;
   pf.runner = &pool;
   return pf;
+}
+
+
+bool read_bin_toml(const std::string& path, BinGeometry& bin, std::string& err) {
+  toml::table t;
+  try {
+    t = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    err = path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
+    return false;
+  }
+  auto numbers = [&](const char* key, std::size_t count, double* out) {
+    const toml::array* a = t["bin"][key].as_array();
+    if (!a || a->size() != count) {
+      err = path + ": bin." + key + " must be an array of " + std::to_string(count) + " numbers";
+      return false;
+    }
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::optional<double> v = (*a)[i].value<double>();
+      if (!v || !std::isfinite(*v)) {
+        err = path + ": bin." + key + "[" + std::to_string(i) + "] is not a finite number";
+        return false;
+      }
+      out[i] = *v;
+    }
+    return true;
+  };
+  double pose[7], size[2];
+  if (!numbers("pose", 7, pose) || !numbers("inner_size_m", 2, size)) return false;
+  const double qn = std::sqrt(pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5] + pose[6] * pose[6]);
+  if (std::fabs(qn - 1.0) > 1e-3) {
+    err = path + ": bin.pose quaternion (qx qy qz qw) must have unit length (it has " + std::to_string(qn) + ")";
+    return false;
+  }
+  for (int i = 0; i < 2; ++i)
+    if (!(size[i] > 0.0 && size[i] <= 10.0)) {
+      err = path + ": bin.inner_size_m[" + std::to_string(i) + "] must be in (0, 10] m";
+      return false;
+    }
+  const Eigen::Quaternionf q(float(pose[6] / qn), float(pose[3] / qn), float(pose[4] / qn), float(pose[5] / qn));
+  bin.T_world_bin.R = q.toRotationMatrix();
+  bin.T_world_bin.t = Vec3f(float(pose[0]), float(pose[1]), float(pose[2]));
+  bin.inner_x_m = float(size[0]);
+  bin.inner_y_m = float(size[1]);
+  return true;
 }
 
 }  // namespace edgefuse::cli

@@ -77,6 +77,14 @@ struct SceneContext {
   float floor_hi[2] = {0, 0};
 };
 
+//! A bin known from configuration (instead of detection): an open box whose inner floor is the
+//! bin frame's z = 0 plane (z up, into the bin's opening), centred on the bin frame's origin.
+struct BinGeometry {
+  Pose T_world_bin;           //!< bin frame to world
+  float inner_x_m = 0;        //!< inner floor length along the bin's x axis
+  float inner_y_m = 0;        //!< ... and along its y axis
+};
+
 //! One result: a model instance or a model-free segment, in picking order.
 struct LocalizedObject {
   int model = -1;           //!< model index, or -1 for a segment

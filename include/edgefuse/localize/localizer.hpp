@@ -140,6 +140,13 @@ class Localizer {
   //! boundary) and removes its points from the scene. Updates the context.
   Status remove_bin(const LocalizeParams& params);
 
+  //! The bin from configuration instead of detection: sets the floor (up = the bin's z axis) and
+  //! its four walls and removes their points exactly as remove_bin() does. Updates the context.
+  //! \param bin floor pose and inner size (kInvalidArgument when the size is not positive or the
+  //!        pose is not finite)
+  //! \param params floor_tol_m / wall_tol_m: points this close to the floor / a wall are the bin
+  Status set_bin(const BinGeometry& bin, const LocalizeParams& params);
+
   //! Model-based localisation with every loaded model.
   //! \param params matching and verification settings
   //! \param max_results at most this many results (<= objects_max)
@@ -181,6 +188,9 @@ class Localizer {
   //! Claims the scene points on the visible surface of model m at T.
   void claim(int m, const Pose& T, const LocalizeParams& params, int32_t label) const;
   std::size_t subsample_scene(float step_m);
+  //! Removes the scene points on/below the floor, on/outside a wall, or beyond the floor's extent
+  //! (all from ctx_), then rebuilds the grid.
+  void remove_bin_points(const LocalizeParams& params);
   //! Labels the scene's connected parts (neighbours within radius) into labels[].
   void connected_components(float radius_m);
   std::size_t vote_model(int m, const LocalizeParams& params, std::size_t first_candidate);
