@@ -16,7 +16,9 @@
 #include "board_defaults.hpp"
 #include "commands.hpp"
 #include "core_setup.hpp"
+#include "edgefuse/filters/depth_filter_chain.hpp"
 #include "edgefuse/io/dataset.hpp"
+#include "edgefuse/tracking/tracker.hpp"
 #include "edgefuse/io/pcd.hpp"
 #include "edgefuse/io/ply.hpp"
 #include "edgefuse/localize/localizer.hpp"
@@ -43,6 +45,8 @@ const char* kUsage =
     "  INPUT: a rig set or depth-sequence folder (fused at its ground-truth poses), a single-frame folder\n"
     "  (depth.png + camera.toml, fused as one frame), or a PLY/PCD cloud (organised clouds get normals from\n"
     "  their image neighbours, unorganised ones without normals by PCA; no free-space check on clouds).\n"
+    "  --track: fuse a sequence at poses tracked by ICP against the fused model (as `edgefuse track`: pre-filters,\n"
+    "  first pose from the set, push after 1 cm / 1 deg or with [--push-every-frame]) instead of its ground-truth poses.\n"
     "  --sensors A,B,..: fuse these sensors of a rig set (as `edgefuse fuse --sensors`: pre-filters, noise-model\n"
     "  trust, line scanners) into the one space that is localised in; the viewpoint is the first colour camera's;\n"
     "  with [--no-filter] [--no-trust] [--min-weight W] (as for `edgefuse fuse`).\n"
@@ -88,7 +92,7 @@ int cmd_localize(int argc, char** argv) {
   Args args;
   std::string err;
   if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
-                  {"segments", "no-walls", "no-filter", "no-trust", "check-truth"}, err) ||
+                  {"segments", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
     return 2;
@@ -276,7 +280,73 @@ int cmd_localize(int argc, char** argv) {
     WorkerPool pool;
     pool.start(fs.threads);
     Vec3f view_sum = Vec3f::Zero();
-    for (std::size_t i = 0; i < frame_count; ++i) {
+    const bool track = args.has("track") && !single;
+    // --track: the tracking loop of `edgefuse track` (pre-filters, raycast, pyramid, ICP, push policy).
+    FramePyramid<real_t> pyramid;
+    IcpWorkspace<real_t> icp_ws;
+    DepthFilterChain<real_t> filters;
+    ImageView<uint16_t> filter_scratch;
+    Tracker tracker;
+    int tracked_ok = 0, pushed = 0;
+    if (track) {
+      if (board.sensors_max < 2 || core.buffers.pyramid<real_t>(0, seq.intr, pyramid) != Status::kOk) {
+        std::fprintf(stderr, "edgefuse localize: --track: the board's buffers do not hold this sensor's frame pyramid\n");
+        return 1;
+      }
+      icp_ws = core.buffers.icp_workspace<real_t>(0);
+      filters = DepthFilterChain<real_t>::defaults_for(seq.intr, seq.frames[0].amplitude_path.empty()
+                                                                      ? DepthSensorKind::kStructuredLight
+                                                                      : DepthSensorKind::kTimeOfFlight);
+      if (filters.prepare(seq.intr) != Status::kOk) {
+        std::fprintf(stderr, "edgefuse localize: --track: depth filters: bad parameters for this sensor\n");
+        return 1;
+      }
+      filter_scratch = ImageView<uint16_t>(core.buffers.depth_frames + std::size_t(board.sensors_max - 1) *
+                                                                           core.buffers.pixels_per_sensor,
+                                           seq.intr.width, seq.intr.height);
+      TrackerParams tp;
+      tp.push.every_frame = args.has("push-every-frame");
+      if (tracker.start(first, tp) != Status::kOk) {
+        std::fprintf(stderr, "edgefuse localize: --track: bad tracker parameters\n");
+        return 1;
+      }
+    }
+    for (std::size_t i = 0; i < frame_count && track; ++i) {
+      const io::FrameRef& f = seq.frames[i];
+      if (i > 0 && !io::load_depth(f, seq.intr, depth, err)) {
+        std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
+        return 1;
+      }
+      std::vector<uint16_t> amplitude;
+      if (!f.amplitude_path.empty() && !io::load_amplitude(f, seq.intr, amplitude, err)) {
+        std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
+        return 1;
+      }
+      const DepthFrame frame = core.stage_frame(depth, nullptr);
+      const ImageView<uint16_t> staged(const_cast<uint16_t*>(frame.depth.data), seq.intr.width, seq.intr.height);
+      const ImageView<const uint16_t> amp = amplitude.empty()
+                                                ? ImageView<const uint16_t>()
+                                                : ImageView<const uint16_t>(amplitude.data(), seq.intr.width, seq.intr.height);
+      Status s = filters.run(staged, amp, filter_scratch, staged);
+      if (s == Status::kOk && i > 0)
+        s = raycast_parallel<real_t>(pool, core.volume, seq.intr, tracker.raycast_pose(), core.maps, core.scratch);
+      TrackResult r;
+      if (s == Status::kOk) s = build_pyramid<real_t>(frame.depth, PyramidParams(), pyramid);
+      if (s == Status::kOk) s = tracker.track<real_t>(pyramid, core.maps, seq.intr, icp_ws, r, nullptr);
+      if (s == Status::kOk && r.push)
+        s = integrate_parallel<real_t>(pool, core.volume, seq.intr, core.ray_norms, frame, r.T_world_cam, core.scratch);
+      if (s != Status::kOk) {
+        std::fprintf(stderr, "edgefuse localize: --track: frame %zu (%s): %s\n", i, f.depth_path.c_str(), to_string(s));
+        return 1;
+      }
+      tracked_ok += r.state == TrackState::kOk;
+      pushed += r.push;
+      view_sum += r.T_world_cam.t;
+      if (f.has_pose && i + 1 == frame_count)
+        std::printf("tracked %zu frames (%d ok, %d pushed); last pose %.2f mm from the set's ground truth\n",
+                    frame_count, tracked_ok, pushed, (r.T_world_cam.t - f.T_world_cam.t).norm() * 1e3);
+    }
+    for (std::size_t i = 0; i < frame_count && !track; ++i) {
       const io::FrameRef& f = seq.frames[i];
       if (!single && !f.has_pose) {
         std::fprintf(stderr, "edgefuse localize: %s: frame %zu has no ground-truth pose\n", input.c_str(), i);
