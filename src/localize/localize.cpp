@@ -291,9 +291,18 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
     if (b_.verified[k].model >= 0) b_.verified[kept++] = b_.verified[k];
   nverified = kept;
   // Best first (explained surface x supported share); a hypothesis whose support is mostly claimed
-  // by a better one is a duplicate (or a symmetric twin) or a conflicting explanation.
-  std::sort(b_.verified, b_.verified + nverified, [](const LocalizedObject& a, const LocalizedObject& b) {
-    const float qa = float(a.support) * a.score, qb = float(b.support) * b.score;
+  // by a better one is a duplicate (or a symmetric twin) or a conflicting explanation. The explained
+  // surface is an area (supported samples x the area one verification sample stands for): counted
+  // in samples, a small part fitted onto a large one's surface (a bracket on the can) outranked it,
+  // as every model is verified with about the same number of samples whatever its size.
+  auto sample_area = [this](int m) {
+    const ModelInfo& info = b_.models[m];
+    const uint32_t stride = info.dense_count > kIcpPoints ? (info.dense_count + kIcpPoints - 1) / kIcpPoints : 1;
+    return float(stride) * info.dense_step_m * info.dense_step_m;
+  };
+  std::sort(b_.verified, b_.verified + nverified, [&sample_area](const LocalizedObject& a, const LocalizedObject& b) {
+    const float qa = float(a.support) * sample_area(a.model) * a.score,
+                qb = float(b.support) * sample_area(b.model) * b.score;
     if (qa != qb) return qa > qb;
     if (a.model != b.model) return a.model < b.model;
     return pose_less(a.T_world_object, b.T_world_object);
