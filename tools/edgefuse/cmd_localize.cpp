@@ -40,6 +40,8 @@ const char* kUsage =
     "           [--bin FILE.toml] (the bin's floor pose and inner size from configuration instead of detection;\n"
     "           [bin] pose = [tx, ty, tz, qx, qy, qz, qw] (T_world_bin, z up, origin at the inner floor's centre),\n"
     "           inner_size_m = [x, y])\n"
+    "           [--config FILE.toml] (models and bin named in a runtime configuration: [localize] models = a PLY,\n"
+    "           a folder of them or a list of files, [localize] bin = a --bin file; paths relative to the file)\n"
     "           [--seg-smooth DEG] [--seg-concave TOL] [--seg-radius M] [--seg-colour TOL]\n"
     "           (region growing, see localizer.hpp)\n"
     "  INPUT: a rig set or depth-sequence folder (fused at its ground-truth poses), a single-frame folder\n"
@@ -91,13 +93,22 @@ int cmd_localize(int argc, char** argv) {
   }
   Args args;
   std::string err;
-  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
+  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "config", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
                   {"segments", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
     return 2;
   }
   const bool segments = args.has("segments");
+  std::string config_bin;
+  if (args.has("config")) {  // models (and the bin) named in a runtime configuration, as edgefused reads them
+    std::vector<std::string> config_models;
+    if (!read_localize_config(args.get("config"), config_models, config_bin, err)) {
+      std::fprintf(stderr, "edgefuse localize: --config: %s\n", err.c_str());
+      return 2;
+    }
+    if (!segments) model_files.insert(model_files.end(), config_models.begin(), config_models.end());
+  }
   if (!segments && model_files.empty()) {
     std::fprintf(stderr, "edgefuse localize: give at least one --model FILE (or --segments)\n%s", kUsage);
     return 2;
@@ -137,8 +148,9 @@ int cmd_localize(int argc, char** argv) {
   params.max_per_model = max_results;
 
   BinGeometry bin_config;
-  const bool bin_from_config = args.has("bin");
-  if (bin_from_config && !read_bin_toml(args.get("bin"), bin_config, err)) {
+  const std::string bin_file = args.has("bin") ? args.get("bin") : config_bin;  // the command line wins
+  const bool bin_from_config = !bin_file.empty();
+  if (bin_from_config && !read_bin_toml(bin_file, bin_config, err)) {
     std::fprintf(stderr, "edgefuse localize: --bin: %s\n", err.c_str());
     return 2;
   }

@@ -31,6 +31,15 @@ void estimate_normals_pca(const std::vector<Vec3f>& points, float radius_m, cons
 //!         that is not unit within 1e-3, a size outside (0, 10] m)
 bool read_bin_toml(const std::string& path, BinGeometry& bin, std::string& err);
 
+//! The localisation part of a runtime configuration (edgefused.toml layout): `[localize] models` =
+//! a PLY file or a folder of them (every *.ply, sorted, as edgefused reads it) or a list of files, and, optionally,
+//! `[localize] bin` = a bin file for read_bin_toml (relative paths: relative to the configuration's
+//! folder). Missing keys leave the outputs empty.
+//! \param path the configuration  \param models model files found  \param bin_file the bin file or ""
+//! \return false with `err` naming the file and key (not a string, folder without models, parse error)
+bool read_localize_config(const std::string& path, std::vector<std::string>& models, std::string& bin_file,
+                          std::string& err);
+
 //! `id tx ty tz qx qy qz qw score model` per result.
 bool write_pose_list(const std::string& path, const Localizer& loc, std::size_t count, std::string& err);
 
