@@ -36,13 +36,17 @@ constexpr uint32_t kRefinePoints = 1500;  // ICP needs fewer than the verificati
 
 }  // namespace
 
-bool Localizer::observable(const Vec3f& q, const Vec3f& n, const LocalizeParams& params) const {
+bool Localizer::observable(const Vec3f& q, const Vec3f& n, float cos_max_incidence) const {
   const Vec3f v = ctx_.viewpoint_m - q;
-  const float c = std::cos(params.max_incidence_deg * (ppf::kPi / 180.0f));
-  return n.dot(v) > c * v.norm();
+  return n.dot(v) > cos_max_incidence * v.norm();
 }
 
+namespace {
+float cos_deg(float deg) { return std::cos(deg * (ppf::kPi / 180.0f)); }
+}  // namespace
+
 bool Localizer::plausible(int m, const Pose& T, const LocalizeParams& params) const {
+  const float cos_inc = cos_deg(params.max_incidence_deg);
   // Share of ~100 facing samples with a scene point within two PPF steps: far below the final
   // threshold means ICP cannot rescue the pose.
   const ModelInfo& info = b_.models[m];
@@ -52,7 +56,7 @@ bool Localizer::plausible(int m, const Pose& T, const LocalizeParams& params) co
   const float r = std::max(2.0f * info.ppf_step_m, 2.0f * params.support_tol_m);
   for (uint32_t i = 0; i < info.dense_count; i += stride) {
     const Vec3f q = T * dense[i].p;
-    if (!observable(q, T.R * dense[i].n, params)) continue;
+    if (!observable(q, T.R * dense[i].n, cos_inc)) continue;
     ++facing;
     float d2;
     near += nearest(q, r, d2) >= 0;
@@ -61,6 +65,7 @@ bool Localizer::plausible(int m, const Pose& T, const LocalizeParams& params) co
 }
 
 bool Localizer::refine(int m, Pose& T, const LocalizeParams& params) const {
+  const float cos_inc = cos_deg(params.max_incidence_deg);
   const ModelInfo& info = b_.models[m];
   const OrientedPoint* dense = model_points(m);
   // Coarse to fine: the first iterations (large gate) use a quarter of the samples.
@@ -84,7 +89,7 @@ bool Localizer::refine(int m, Pose& T, const LocalizeParams& params) const {
       // Model surface the sensor sees at grazing incidence only pairs with scene surface of nearly
       // the same orientation: otherwise it latches onto the rounded edges of the fused surface
       // (normals half-way between two faces) and drags thin parts sideways.
-      if (n.dot(s.n) < (observable(q, n, params) ? 0.7f : 0.85f)) continue;  // 0.85: bin_rig_a median 0.22 mm (0.95 lost a box of test_localize)
+      if (n.dot(s.n) < (observable(q, n, cos_inc) ? 0.7f : 0.85f)) continue;  // 0.85: bin_rig_a median 0.22 mm (0.95 lost a box of test_localize)
       const float e = (q - s.p).dot(s.n);
       Eigen::Matrix<float, 6, 1> J;
       J.head<3>() = (q - c).cross(s.n);
@@ -113,6 +118,7 @@ bool Localizer::refine(int m, Pose& T, const LocalizeParams& params) const {
 
 void Localizer::verify(int m, const Pose& T, const LocalizeParams& params, LocalizedObject& out, int claim_label,
                        float* overlap) const {
+  const float cos_inc = cos_deg(params.max_incidence_deg);
   const ModelInfo& info = b_.models[m];
   const OrientedPoint* dense = model_points(m);
   const uint32_t stride = info.dense_count > kIcpPoints ? (info.dense_count + kIcpPoints - 1) / kIcpPoints : 1;
@@ -132,7 +138,7 @@ void Localizer::verify(int m, const Pose& T, const LocalizeParams& params, Local
     const bool empty = free_space_at(q) > params.free_space_margin_m &&
                        free_space_at(q - n * inset) > params.free_space_margin_m;
     if (empty || (ctx_.has_floor && height < -2.0f * params.floor_tol_m)) ++violations;
-    if (!observable(q, n, params)) continue;
+    if (!observable(q, n, cos_inc)) continue;
     if (ctx_.has_floor && height < params.floor_tol_m) continue;  // the floor contact was removed with the bin
     if (volume_) {  // an unobserved model point is occluded, not missing
       const Vec3f g = (q - volume_->origin_m()) / volume_->voxel_m();

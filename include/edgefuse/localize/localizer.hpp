@@ -202,8 +202,9 @@ class Localizer {
   void verify(int m, const Pose& T, const LocalizeParams& params, LocalizedObject& out, int claim_label,
               float* overlap) const;
   float free_space_at(const Vec3f& p) const;
-  //! True when model surface at q with normal n faces the viewpoint within params.max_incidence_deg.
-  bool observable(const Vec3f& q, const Vec3f& n, const LocalizeParams& params) const;
+  //! True when model surface at q with normal n faces the viewpoint within the incidence angle
+  //! whose cosine is given (cos of params.max_incidence_deg, computed once per caller).
+  bool observable(const Vec3f& q, const Vec3f& n, float cos_max_incidence) const;
   void sort_picking_order(std::size_t count) const;
 
   LocalizeBuffers b_;
