@@ -37,7 +37,7 @@ ScenePoint g_scene[kScenePoints];
 uint64_t g_scratch[2 * kScenePoints];
 uint32_t g_grid_index[kScenePoints], g_grid_buckets[kGridBuckets + 1], g_sample[kScenePoints], g_queue[kScenePoints];
 int32_t g_labels[kScenePoints];
-uint16_t g_votes[kPpfPoints * kPpfAngleBins];
+uint16_t g_votes[kVoteAccumulators * kPpfPoints * kPpfAngleBins];
 PoseCandidate g_candidates[kHypotheses];
 LocalizedObject g_verified[kModels * kClustersPerModel], g_results[kObjects];
 
@@ -333,4 +333,53 @@ TEST(Localize, SameResultsOnAnyThreadCount) {
     CHECK(loc.results()[i].T_world_object.R == serial[i].T_world_object.R);
     CHECK(loc.results()[i].score == serial[i].score);
   }
+}
+
+// localize3: the bin from configuration (floor pose + inner size) instead of detection. A second,
+// identical box stands outside the configured bin: it must be removed with the bin (one pose only),
+// the box inside is found, nothing is allocated, and a bad geometry is refused.
+TEST(Localize, BinFromConfigurationRemovesWhatIsOutside) {
+  Localizer loc;
+  CHECK(loc.init(buffers()) == Status::kOk);
+  std::vector<Vec3f> v;
+  std::vector<std::array<uint32_t, 3>> t;
+  box_mesh(kHalf, v, t);
+  LocalizeParams params;
+  int index = -1;
+  CHECK(loc.add_model("box", v.data(), v.size(), reinterpret_cast<const uint32_t(*)[3]>(t.data()), t.size(), params,
+                      index) == Status::kOk);
+  Scene scene;
+  scene.add_plane(Vec3f(0, 0, 1), 0.0f);
+  Pose inside, outside;
+  inside.R = Eigen::AngleAxisf(0.4f, Vec3f::UnitZ()).toRotationMatrix();
+  inside.t = Vec3f(-0.02f, 0.01f, kHalf.z());
+  outside.R = Eigen::AngleAxisf(-0.2f, Vec3f::UnitZ()).toRotationMatrix();
+  outside.t = Vec3f(0.14f, -0.02f, kHalf.z());
+  scene.add_box(inside.t, kHalf, inside);
+  scene.add_box(outside.t, kHalf, outside);
+  TsdfVolume vol;
+  SceneContext ctx;
+  const std::size_t n = fuse(scene, vol, ctx.viewpoint_m);
+  BinGeometry bin;  // inner floor 0.20 x 0.20 m at z = 0: the second box (x = 0.14 m) is outside
+  bin.inner_x_m = 0.20f;
+  bin.inner_y_m = 0.20f;
+  std::size_t poses = 0;
+  alloc_count_start();
+  CHECK(loc.set_scene(g_points, n, ctx, &vol, 0.0075f) == Status::kOk);
+  CHECK(loc.set_bin(bin, params) == Status::kOk);
+  CHECK(loc.localize(params, kObjects, poses) == Status::kOk);
+  LONGS_EQUAL(0, alloc_count());
+  CHECK(loc.context().has_floor);
+  LONGS_EQUAL(4, loc.context().walls);
+  for (std::size_t i = 0; i < loc.scene_count(); ++i) {  // nothing left on the floor or outside the bin
+    CHECK(loc.scene()[i].p.z() > params.floor_tol_m);
+    CHECK(std::fabs(loc.scene()[i].p.x()) < 0.1f && std::fabs(loc.scene()[i].p.y()) < 0.1f);
+  }
+  LONGS_EQUAL(1, poses);
+  const float err = corner_error(kHalf, loc.results()[0].T_world_object, inside);
+  std::printf("\n  box in the configured bin: corner error %.2f mm, score %.2f", err * 1e3f, loc.results()[0].score);
+  CHECK(err < 0.003f);
+  BinGeometry bad = bin;
+  bad.inner_y_m = 0.0f;
+  CHECK(loc.set_bin(bad, params) == Status::kInvalidArgument);
 }

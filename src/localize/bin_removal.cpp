@@ -197,21 +197,57 @@ Status Localizer::remove_bin(const LocalizeParams& params) {
   ctx_.floor_hi[0] = hi1;
   ctx_.floor_lo[1] = lo2;
   ctx_.floor_hi[1] = hi2;
-  // --- removal (in place, order kept)
+  remove_bin_points(params);
+  return Status::kOk;
+}
+
+void Localizer::remove_bin_points(const LocalizeParams& params) {
+  // In place, order kept.
   std::size_t out = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Vec3f& p = pts[i].p;
-    bool keep = best.dist(p) > params.floor_tol_m;
+  const Vec3f& fcen = ctx_.floor_centre_m;
+  const Vec3f& e1 = ctx_.floor_axis[0];
+  const Vec3f& e2 = ctx_.floor_axis[1];
+  for (std::size_t i = 0; i < scene_count_; ++i) {
+    const Vec3f& p = b_.scene[i].p;
+    bool keep = ctx_.up.dot(p) + ctx_.floor_offset > params.floor_tol_m;
     for (int k = 0; k < ctx_.walls && keep; ++k) keep = ctx_.wall_n[k].dot(p) + ctx_.wall_d[k] > params.wall_tol_m;
     if (keep && params.crop_to_floor) {
       const float a = (p - fcen).dot(e1), b = (p - fcen).dot(e2);
-      keep = a > lo1 + params.wall_tol_m && a < hi1 - params.wall_tol_m && b > lo2 + params.wall_tol_m &&
-             b < hi2 - params.wall_tol_m;
+      keep = a > ctx_.floor_lo[0] + params.wall_tol_m && a < ctx_.floor_hi[0] - params.wall_tol_m &&
+             b > ctx_.floor_lo[1] + params.wall_tol_m && b < ctx_.floor_hi[1] - params.wall_tol_m;
     }
     if (keep) b_.scene[out++] = b_.scene[i];
   }
   scene_count_ = out;
   build_grid(grid_cell_m_);
+}
+
+Status Localizer::set_bin(const BinGeometry& bin, const LocalizeParams& params) {
+  if (!b_.scene) return Status::kNotInitialised;
+  const Pose& T = bin.T_world_bin;
+  if (!T.t.allFinite() || !T.R.allFinite() || !(bin.inner_x_m > 0) || !(bin.inner_y_m > 0))
+    return Status::kInvalidArgument;
+  const Vec3f ex = T.R.col(0), ey = T.R.col(1), ez = T.R.col(2);
+  ctx_.up = ez;
+  ctx_.floor_offset = -ez.dot(T.t);
+  ctx_.has_floor = true;
+  // Walls: inward normals, through the inner faces at +-half the inner size.
+  const float hx = 0.5f * bin.inner_x_m, hy = 0.5f * bin.inner_y_m;
+  const Vec3f n[4] = {ex, -ex, ey, -ey};
+  const float h[4] = {hx, hx, hy, hy};
+  for (int k = 0; k < 4; ++k) {
+    ctx_.wall_n[k] = n[k];
+    ctx_.wall_d[k] = h[k] - n[k].dot(T.t);  // n.p + d = 0 at p = t - n h
+  }
+  ctx_.walls = 4;
+  ctx_.floor_centre_m = T.t;
+  ctx_.floor_axis[0] = ex;
+  ctx_.floor_axis[1] = ey;
+  ctx_.floor_lo[0] = -hx;
+  ctx_.floor_hi[0] = hx;
+  ctx_.floor_lo[1] = -hy;
+  ctx_.floor_hi[1] = hy;
+  remove_bin_points(params);
   return Status::kOk;
 }
 

@@ -16,7 +16,9 @@
 #include "board_defaults.hpp"
 #include "commands.hpp"
 #include "core_setup.hpp"
+#include "edgefuse/filters/depth_filter_chain.hpp"
 #include "edgefuse/io/dataset.hpp"
+#include "edgefuse/tracking/tracker.hpp"
 #include "edgefuse/io/pcd.hpp"
 #include "edgefuse/io/ply.hpp"
 #include "edgefuse/localize/localizer.hpp"
@@ -33,16 +35,26 @@ const char* kUsage =
     "       edgefuse localize INPUT --segments [--max N] [--out labels.pcd]\n"
     "  options: [--sensor NAME | --sensors A,B,...] [--frames N] [--voxel M] [--volume N] [--threads N] [--no-walls] [--min-score S]\n"
     "           [--icp-iterations N] (per hypothesis, default 12)\n"
+    "           [--max-incidence DEG] (model surface seen more obliquely is not expected in the scene, default 75)\n"
     "           [--scene-out FILE.ply] (the scene after bin removal, for inspection)\n"
+    "           [--bin FILE.toml] (the bin's floor pose and inner size from configuration instead of detection;\n"
+    "           [bin] pose = [tx, ty, tz, qx, qy, qz, qw] (T_world_bin, z up, origin at the inner floor's centre),\n"
+    "           inner_size_m = [x, y])\n"
+    "           [--config FILE.toml] (models and bin named in a runtime configuration: [localize] models = a PLY,\n"
+    "           a folder of them or a list of files, [localize] bin = a --bin file; paths relative to the file)\n"
     "           [--seg-smooth DEG] [--seg-concave TOL] [--seg-radius M] [--seg-colour TOL]\n"
     "           (region growing, see localizer.hpp)\n"
     "  INPUT: a rig set or depth-sequence folder (fused at its ground-truth poses), a single-frame folder\n"
     "  (depth.png + camera.toml, fused as one frame), or a PLY/PCD cloud (organised clouds get normals from\n"
     "  their image neighbours, unorganised ones without normals by PCA; no free-space check on clouds).\n"
+    "  --track: fuse a sequence at poses tracked by ICP against the fused model (as `edgefuse track`: pre-filters,\n"
+    "  first pose from the set, push after 1 cm / 1 deg or with [--push-every-frame]) instead of its ground-truth poses.\n"
     "  --sensors A,B,..: fuse these sensors of a rig set (as `edgefuse fuse --sensors`: pre-filters, noise-model\n"
     "  trust, line scanners) into the one space that is localised in; the viewpoint is the first colour camera's;\n"
     "  with [--no-filter] [--no-trust] [--min-weight W] (as for `edgefuse fuse`).\n"
     "  Poses: one line per object `id tx ty tz qx qy qz qw score model` (T_world_object; id = picking rank).\n"
+    "  --check-truth (rig sets): also verifies every true object pose of objects.txt (at the truth and after ICP\n"
+    "  from it) as a hypothesis would be, to show why a known object is missed.\n"
     "  Segments: a PCD with a `label` field per input point (organised inputs keep width x height; 0 = none).\n";
 
 double cpu_ms(clockid_t clock = CLOCK_THREAD_CPUTIME_ID) {
@@ -81,13 +93,22 @@ int cmd_localize(int argc, char** argv) {
   }
   Args args;
   std::string err;
-  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
-                  {"segments", "no-walls", "no-filter", "no-trust"}, err) ||
+  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "config", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
+                  {"segments", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
     return 2;
   }
   const bool segments = args.has("segments");
+  std::string config_bin;
+  if (args.has("config")) {  // models (and the bin) named in a runtime configuration, as edgefused reads them
+    std::vector<std::string> config_models;
+    if (!read_localize_config(args.get("config"), config_models, config_bin, err)) {
+      std::fprintf(stderr, "edgefuse localize: --config: %s\n", err.c_str());
+      return 2;
+    }
+    if (!segments) model_files.insert(model_files.end(), config_models.begin(), config_models.end());
+  }
   if (!segments && model_files.empty()) {
     std::fprintf(stderr, "edgefuse localize: give at least one --model FILE (or --segments)\n%s", kUsage);
     return 2;
@@ -113,7 +134,8 @@ int cmd_localize(int argc, char** argv) {
       !args.get_float("seg-concave", -1.0f, 1.0f, params.segment_concave_tol, err) ||
       !args.get_float("seg-radius", 0.001f, 0.1f, params.segment_radius_m, err) ||
       !args.get_int("seg-colour", 0, 765, params.segment_colour_tol, err) ||
-      !args.get_int("icp-iterations", 1, 100, params.icp_iterations, err)) {
+      !args.get_int("icp-iterations", 1, 100, params.icp_iterations, err) ||
+      !args.get_float("max-incidence", 1.0f, 90.0f, params.max_incidence_deg, err)) {
     std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
     return 2;
   }
@@ -124,6 +146,14 @@ int cmd_localize(int argc, char** argv) {
   }
   params.detect_walls = !args.has("no-walls");
   params.max_per_model = max_results;
+
+  BinGeometry bin_config;
+  const std::string bin_file = args.has("bin") ? args.get("bin") : config_bin;  // the command line wins
+  const bool bin_from_config = !bin_file.empty();
+  if (bin_from_config && !read_bin_toml(bin_file, bin_config, err)) {
+    std::fprintf(stderr, "edgefuse localize: --bin: %s\n", err.c_str());
+    return 2;
+  }
 
   // --- start-up: static buffers and models
   CoreBuffers buffers;
@@ -262,7 +292,73 @@ int cmd_localize(int argc, char** argv) {
     WorkerPool pool;
     pool.start(fs.threads);
     Vec3f view_sum = Vec3f::Zero();
-    for (std::size_t i = 0; i < frame_count; ++i) {
+    const bool track = args.has("track") && !single;
+    // --track: the tracking loop of `edgefuse track` (pre-filters, raycast, pyramid, ICP, push policy).
+    FramePyramid<real_t> pyramid;
+    IcpWorkspace<real_t> icp_ws;
+    DepthFilterChain<real_t> filters;
+    ImageView<uint16_t> filter_scratch;
+    Tracker tracker;
+    int tracked_ok = 0, pushed = 0;
+    if (track) {
+      if (board.sensors_max < 2 || core.buffers.pyramid<real_t>(0, seq.intr, pyramid) != Status::kOk) {
+        std::fprintf(stderr, "edgefuse localize: --track: the board's buffers do not hold this sensor's frame pyramid\n");
+        return 1;
+      }
+      icp_ws = core.buffers.icp_workspace<real_t>(0);
+      filters = DepthFilterChain<real_t>::defaults_for(seq.intr, seq.frames[0].amplitude_path.empty()
+                                                                      ? DepthSensorKind::kStructuredLight
+                                                                      : DepthSensorKind::kTimeOfFlight);
+      if (filters.prepare(seq.intr) != Status::kOk) {
+        std::fprintf(stderr, "edgefuse localize: --track: depth filters: bad parameters for this sensor\n");
+        return 1;
+      }
+      filter_scratch = ImageView<uint16_t>(core.buffers.depth_frames + std::size_t(board.sensors_max - 1) *
+                                                                           core.buffers.pixels_per_sensor,
+                                           seq.intr.width, seq.intr.height);
+      TrackerParams tp;
+      tp.push.every_frame = args.has("push-every-frame");
+      if (tracker.start(first, tp) != Status::kOk) {
+        std::fprintf(stderr, "edgefuse localize: --track: bad tracker parameters\n");
+        return 1;
+      }
+    }
+    for (std::size_t i = 0; i < frame_count && track; ++i) {
+      const io::FrameRef& f = seq.frames[i];
+      if (i > 0 && !io::load_depth(f, seq.intr, depth, err)) {
+        std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
+        return 1;
+      }
+      std::vector<uint16_t> amplitude;
+      if (!f.amplitude_path.empty() && !io::load_amplitude(f, seq.intr, amplitude, err)) {
+        std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
+        return 1;
+      }
+      const DepthFrame frame = core.stage_frame(depth, nullptr);
+      const ImageView<uint16_t> staged(const_cast<uint16_t*>(frame.depth.data), seq.intr.width, seq.intr.height);
+      const ImageView<const uint16_t> amp = amplitude.empty()
+                                                ? ImageView<const uint16_t>()
+                                                : ImageView<const uint16_t>(amplitude.data(), seq.intr.width, seq.intr.height);
+      Status s = filters.run(staged, amp, filter_scratch, staged);
+      if (s == Status::kOk && i > 0)
+        s = raycast_parallel<real_t>(pool, core.volume, seq.intr, tracker.raycast_pose(), core.maps, core.scratch);
+      TrackResult r;
+      if (s == Status::kOk) s = build_pyramid<real_t>(frame.depth, PyramidParams(), pyramid);
+      if (s == Status::kOk) s = tracker.track<real_t>(pyramid, core.maps, seq.intr, icp_ws, r, nullptr);
+      if (s == Status::kOk && r.push)
+        s = integrate_parallel<real_t>(pool, core.volume, seq.intr, core.ray_norms, frame, r.T_world_cam, core.scratch);
+      if (s != Status::kOk) {
+        std::fprintf(stderr, "edgefuse localize: --track: frame %zu (%s): %s\n", i, f.depth_path.c_str(), to_string(s));
+        return 1;
+      }
+      tracked_ok += r.state == TrackState::kOk;
+      pushed += r.push;
+      view_sum += r.T_world_cam.t;
+      if (f.has_pose && i + 1 == frame_count)
+        std::printf("tracked %zu frames (%d ok, %d pushed); last pose %.2f mm from the set's ground truth\n",
+                    frame_count, tracked_ok, pushed, (r.T_world_cam.t - f.T_world_cam.t).norm() * 1e3);
+    }
+    for (std::size_t i = 0; i < frame_count && !track; ++i) {
       const io::FrameRef& f = seq.frames[i];
       if (!single && !f.has_pose) {
         std::fprintf(stderr, "edgefuse localize: %s: frame %zu has no ground-truth pose\n", input.c_str(), i);
@@ -317,9 +413,11 @@ int cmd_localize(int argc, char** argv) {
   }
   (void)fused;
   const std::size_t before = loc.scene_count();
-  loc.remove_bin(params);
+  if (bin_from_config) loc.set_bin(bin_config, params);  // validated when read
+  else loc.remove_bin(params);
   const SceneContext& c = loc.context();
-  std::printf("bin: %s, %d walls; %zu of %zu scene points left\n", c.has_floor ? "floor found" : "no floor", c.walls,
+  std::printf("bin: %s, %d walls; %zu of %zu scene points left\n",
+              bin_from_config ? "from configuration" : c.has_floor ? "floor found" : "no floor", c.walls,
               loc.scene_count(), before);
   if (c.has_floor)
     std::printf("floor: up %.3f %.3f %.3f offset %.4f, centre %.3f %.3f %.3f, extent %.3f..%.3f along (%.2f %.2f %.2f), "
@@ -362,6 +460,31 @@ int cmd_localize(int argc, char** argv) {
   }
   std::printf("%s=%zu candidates=%zu localize_cpu_ms=%.1f localize_proc_cpu_ms=%.1f localize_wall_ms=%.1f\n",
               segments ? "segments" : "objects", count, loc.last_candidates(), ms_cpu, ms_proc, ms_wall);
+  if (args.has("check-truth") && !segments) {  // diagnostics: the true poses through the same verification
+    io::RigSet set;
+    if (!is_dir(input) || !io::open_rig_set(input, set, err)) {
+      std::fprintf(stderr, "edgefuse localize: --check-truth needs a rig set: %s\n", err.empty() ? input.c_str() : err.c_str());
+      return 1;
+    }
+    for (const io::ObjectPose& o : set.objects) {
+      const io::RigObject* ro = set.rig.find_object(o.id);
+      if (!ro) continue;
+      const std::string base = ro->model.substr(ro->model.find_last_of('/') + 1);
+      for (int m = 0; m < loc.model_count(); ++m) {
+        if (base != loc.model(m).name) continue;
+        LocalizedObject at, refined;
+        loc.check_pose(m, o.T_world_object, params, false, at);
+        const bool ok = loc.check_pose(m, o.T_world_object, params, true, refined);
+        const Pose d = o.T_world_object.inverse() * refined.T_world_object;
+        const float ang = std::acos(std::min(1.0f, std::max(-1.0f, 0.5f * (d.R.trace() - 1.0f)))) * 57.29578f;
+        std::printf("truth %d %s: at truth score %.3f support %u residual %.2f mm free %.3f; after ICP%s score %.3f "
+                    "support %u free %.3f moved %.2f mm %.2f deg\n",
+                    o.id, base.c_str(), at.score, at.support, at.residual_m * 1e3, at.free_space, ok ? "" : " (failed)",
+                    refined.score, refined.support, refined.free_space,
+                    (refined.T_world_object.t - o.T_world_object.t).norm() * 1e3, ang);
+      }
+    }
+  }
   if (segments) {
     const std::string out = args.get("out", "labels.pcd");
     if (!write_segment_labels(out, loc, in_cloud, surface_count, buffers.points, err)) {

@@ -1,6 +1,11 @@
 #include "localize_io.hpp"
 
+#include <dirent.h>
+#include <sys/stat.h>
+#include <toml++/toml.h>
+
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -206,6 +211,119 @@ ParallelFor pool_parallel_for(WorkerPool& pool) {
   pf.run = &pool_run;
   pf.runner = &pool;
   return pf;
+}
+
+
+bool read_bin_toml(const std::string& path, BinGeometry& bin, std::string& err) {
+  toml::table t;
+  try {
+    t = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    err = path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
+    return false;
+  }
+  auto numbers = [&](const char* key, std::size_t count, double* out) {
+    const toml::array* a = t["bin"][key].as_array();
+    if (!a || a->size() != count) {
+      err = path + ": bin." + key + " must be an array of " + std::to_string(count) + " numbers";
+      return false;
+    }
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::optional<double> v = (*a)[i].value<double>();
+      if (!v || !std::isfinite(*v)) {
+        err = path + ": bin." + key + "[" + std::to_string(i) + "] is not a finite number";
+        return false;
+      }
+      out[i] = *v;
+    }
+    return true;
+  };
+  double pose[7], size[2];
+  if (!numbers("pose", 7, pose) || !numbers("inner_size_m", 2, size)) return false;
+  const double qn = std::sqrt(pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5] + pose[6] * pose[6]);
+  if (std::fabs(qn - 1.0) > 1e-3) {
+    err = path + ": bin.pose quaternion (qx qy qz qw) must have unit length (it has " + std::to_string(qn) + ")";
+    return false;
+  }
+  for (int i = 0; i < 2; ++i)
+    if (!(size[i] > 0.0 && size[i] <= 10.0)) {
+      err = path + ": bin.inner_size_m[" + std::to_string(i) + "] must be in (0, 10] m";
+      return false;
+    }
+  const Eigen::Quaternionf q(float(pose[6] / qn), float(pose[3] / qn), float(pose[4] / qn), float(pose[5] / qn));
+  bin.T_world_bin.R = q.toRotationMatrix();
+  bin.T_world_bin.t = Vec3f(float(pose[0]), float(pose[1]), float(pose[2]));
+  bin.inner_x_m = float(size[0]);
+  bin.inner_y_m = float(size[1]);
+  return true;
+}
+
+
+bool read_localize_config(const std::string& path, std::vector<std::string>& models, std::string& bin_file,
+                          std::string& err) {
+  toml::table t;
+  try {
+    t = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    err = path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
+    return false;
+  }
+  const std::size_t slash = path.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? std::string(".") : path.substr(0, slash);
+  auto resolve = [&dir](const std::string& p) { return p.empty() || p[0] == '/' ? p : dir + "/" + p; };
+  auto text = [&](const char* key, std::string& out) {
+    const auto node = t["localize"][key];
+    if (!node) return true;
+    const std::optional<std::string> v = node.value<std::string>();
+    if (!v) {
+      err = path + ": localize." + key + " must be a path" + (std::string(key) == "models" ? " (a file or folder) or a list of files" : "");
+      return false;
+    }
+    out = resolve(*v);
+    return true;
+  };
+  if (!text("bin", bin_file)) return false;
+  if (const toml::array* list = t["localize"]["models"].as_array()) {  // a list of PLY files
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      const std::optional<std::string> v = (*list)[i].value<std::string>();
+      if (!v || v->empty()) {
+        err = path + ": localize.models[" + std::to_string(i) + "] must be a file path";
+        return false;
+      }
+      models.push_back(resolve(*v));
+    }
+    return true;
+  }
+  std::string spec;
+  if (!text("models", spec)) return false;
+  if (spec.empty()) return true;
+  struct stat st;
+  if (stat(spec.c_str(), &st) != 0) {
+    err = path + ": localize.models: " + spec + " does not exist";
+    return false;
+  }
+  if (!S_ISDIR(st.st_mode)) {
+    models.push_back(spec);
+    return true;
+  }
+  DIR* d = opendir(spec.c_str());
+  if (d == nullptr) {
+    err = path + ": localize.models: cannot read the folder " + spec;
+    return false;
+  }
+  std::vector<std::string> names;
+  while (dirent* e = readdir(d)) {
+    const std::string n = e->d_name;
+    if (n.size() > 4 && n.compare(n.size() - 4, 4, ".ply") == 0) names.push_back(spec + "/" + n);
+  }
+  closedir(d);
+  std::sort(names.begin(), names.end());
+  if (names.empty()) {
+    err = path + ": localize.models: no .ply model in the folder " + spec;
+    return false;
+  }
+  models.insert(models.end(), names.begin(), names.end());
+  return true;
 }
 
 }  // namespace edgefuse::cli

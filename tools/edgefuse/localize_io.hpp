@@ -22,6 +22,24 @@ bool cloud_scene_points(const io::PointCloud& cloud, std::vector<ScenePoint>& ou
 void estimate_normals_pca(const std::vector<Vec3f>& points, float radius_m, const Vec3f& viewpoint,
                           std::vector<Vec3f>& normals);
 
+//! The bin from a configuration file instead of detection (TOML):
+//!   [bin]
+//!   pose = [tx, ty, tz, qx, qy, qz, qw]  # T_world_bin: z up, origin at the centre of the inner floor
+//!   inner_size_m = [x, y]                # inner floor size along the bin's x and y axes
+//! \param path the file  \param bin result
+//! \return false with `err` naming the file and the bad key (missing, not a number, a quaternion
+//!         that is not unit within 1e-3, a size outside (0, 10] m)
+bool read_bin_toml(const std::string& path, BinGeometry& bin, std::string& err);
+
+//! The localisation part of a runtime configuration (edgefused.toml layout): `[localize] models` =
+//! a PLY file or a folder of them (every *.ply, sorted, as edgefused reads it) or a list of files, and, optionally,
+//! `[localize] bin` = a bin file for read_bin_toml (relative paths: relative to the configuration's
+//! folder). Missing keys leave the outputs empty.
+//! \param path the configuration  \param models model files found  \param bin_file the bin file or ""
+//! \return false with `err` naming the file and key (not a string, folder without models, parse error)
+bool read_localize_config(const std::string& path, std::vector<std::string>& models, std::string& bin_file,
+                          std::string& err);
+
 //! `id tx ty tz qx qy qz qw score model` per result.
 bool write_pose_list(const std::string& path, const Localizer& loc, std::size_t count, std::string& err);
 

@@ -30,6 +30,9 @@ inline constexpr int kPpfAngleBins = 30;          //!< 12 degree steps (Drost et
 inline constexpr uint32_t kPpfBuckets = 1u << 15; //!< hash buckets per model
 inline constexpr uint32_t kGridBuckets = 1u << 18;  //!< scene nearest-neighbour grid buckets
 inline constexpr int kClustersPerModel = 32;      //!< pose clusters refined and verified per model
+//! PPF vote accumulators (the references are voted in this many chunks, one accumulator each, over
+//! the caller's threads; a fixed count, so the chunking and the results do not depend on threads).
+inline constexpr int kVoteAccumulators = 4;
 
 //! One entry of a model's point pair feature table: the quantised feature (for collision checks),
 //! the model reference point and its angle alpha_m (quantised to int16 over [-pi, pi)).
@@ -72,6 +75,14 @@ struct SceneContext {
   Vec3f floor_axis[2];                //!< in-plane principal axes of the floor points
   float floor_lo[2] = {0, 0};         //!< extent of the floor along each axis (robust bounds)
   float floor_hi[2] = {0, 0};
+};
+
+//! A bin known from configuration (instead of detection): an open box whose inner floor is the
+//! bin frame's z = 0 plane (z up, into the bin's opening), centred on the bin frame's origin.
+struct BinGeometry {
+  Pose T_world_bin;           //!< bin frame to world
+  float inner_x_m = 0;        //!< inner floor length along the bin's x axis
+  float inner_y_m = 0;        //!< ... and along its y axis
 };
 
 //! One result: a model instance or a model-free segment, in picking order.

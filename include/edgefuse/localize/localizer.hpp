@@ -38,7 +38,7 @@ struct LocalizeBuffers {
   uint32_t* sample = nullptr;             //!< scene_points_max
   int32_t* labels = nullptr;              //!< scene_points_max
   uint32_t* queue = nullptr;              //!< scene_points_max
-  uint16_t* votes = nullptr;              //!< ppf_points_max * kPpfAngleBins
+  uint16_t* votes = nullptr;              //!< kVoteAccumulators * ppf_points_max * kPpfAngleBins
   PoseCandidate* candidates = nullptr;    //!< hypotheses_max vote peaks
   LocalizedObject* verified = nullptr;    //!< models_max * kClustersPerModel refined hypotheses
   LocalizedObject* results = nullptr;     //!< objects_max
@@ -57,6 +57,10 @@ struct LocalizeParams {
   float cluster_rot_deg = 15.0f;   //!< ... and rotation within this angle
   int icp_iterations = 12;        //!< per hypothesis (12: same bin_rig_a median error as 20, 8 is worse)
   float support_tol_m = 0.003f;    //!< a model point is supported by a scene point this close
+  //! Model surface seen at a larger incidence angle (normal vs the direction to the viewpoint) is
+  //! not expected in the scene: depth cameras return nothing at grazing incidence (structured light
+  //! beyond ~75 deg). Such samples neither pull ICP nor count as visible-but-missing in the score.
+  float max_incidence_deg = 75.0f;
   float min_score = 0.3f;          //!< least supported share of the visible model surface
   int min_support = 40;            //!< least number of supported model samples
   float free_space_margin_m = 0.004f;  //!< TSDF distance in front of the surface that counts as empty
@@ -88,7 +92,8 @@ struct ParallelFor {
 
 class Localizer {
  public:
-  //! Spreads the refinement and verification of pose hypotheses over the caller's threads
+  //! Spreads the PPF voting (in kVoteAccumulators chunks of references) and the refinement and
+  //! verification of pose hypotheses over the caller's threads
   //! (default: serial). Identical results for any thread count.
   //! \param pf the caller's parallel-for (run == nullptr: serial)
   void set_parallel(const ParallelFor& pf) { parallel_ = pf; }
@@ -135,6 +140,13 @@ class Localizer {
   //! boundary) and removes its points from the scene. Updates the context.
   Status remove_bin(const LocalizeParams& params);
 
+  //! The bin from configuration instead of detection: sets the floor (up = the bin's z axis) and
+  //! its four walls and removes their points exactly as remove_bin() does. Updates the context.
+  //! \param bin floor pose and inner size (kInvalidArgument when the size is not positive or the
+  //!        pose is not finite)
+  //! \param params floor_tol_m / wall_tol_m: points this close to the floor / a wall are the bin
+  Status set_bin(const BinGeometry& bin, const LocalizeParams& params);
+
   //! Model-based localisation with every loaded model.
   //! \param params matching and verification settings
   //! \param max_results at most this many results (<= objects_max)
@@ -154,6 +166,14 @@ class Localizer {
   const int32_t* labels() const { return b_.labels; }
   const SceneContext& context() const { return ctx_; }
 
+  //! Diagnostics: verifies model m at a given pose (e.g. the true one), optionally after ICP from it,
+  //! exactly as localize() verifies its hypotheses; says why a known object is missed.
+  //! \param m model index  \param T pose to check (T_world_object)
+  //! \param params verification settings  \param refine_first run ICP from T first
+  //! \param out verification result (out.T_world_object = the refined pose)
+  //! \return false when ICP found too few correspondences
+  bool check_pose(int m, const Pose& T, const LocalizeParams& params, bool refine_first, LocalizedObject& out) const;
+
   //! Pose candidates of the last localize() before verification (for diagnostics).
   std::size_t last_candidates() const { return last_candidates_; }
 
@@ -168,14 +188,23 @@ class Localizer {
   //! Claims the scene points on the visible surface of model m at T.
   void claim(int m, const Pose& T, const LocalizeParams& params, int32_t label) const;
   std::size_t subsample_scene(float step_m);
+  //! Removes the scene points on/below the floor, on/outside a wall, or beyond the floor's extent
+  //! (all from ctx_), then rebuilds the grid.
+  void remove_bin_points(const LocalizeParams& params);
   //! Labels the scene's connected parts (neighbours within radius) into labels[].
   void connected_components(float radius_m);
   std::size_t vote_model(int m, const LocalizeParams& params, std::size_t first_candidate);
+  //! Votes of reference sample r of model m into accumulator `votes`; false when no peak.
+  bool vote_reference(int m, std::size_t r, std::size_t ns, uint16_t* votes, PoseCandidate& out) const;
+  static void vote_job(void* self, std::size_t chunk);
   bool refine(int m, Pose& T, const LocalizeParams& params) const;
   bool plausible(int m, const Pose& T, const LocalizeParams& params) const;
   void verify(int m, const Pose& T, const LocalizeParams& params, LocalizedObject& out, int claim_label,
               float* overlap) const;
   float free_space_at(const Vec3f& p) const;
+  //! True when model surface at q with normal n faces the viewpoint within the incidence angle
+  //! whose cosine is given (cos of params.max_incidence_deg, computed once per caller).
+  bool observable(const Vec3f& q, const Vec3f& n, float cos_max_incidence) const;
   void sort_picking_order(std::size_t count) const;
 
   LocalizeBuffers b_;
@@ -187,7 +216,9 @@ class Localizer {
   float grid_inv_ = 200.0f;
   std::size_t last_candidates_ = 0;
   ParallelFor parallel_;
-  const LocalizeParams* job_params_ = nullptr;  //!< of the running refine_job batch
+  const LocalizeParams* job_params_ = nullptr;  //!< of the running refine_job / vote_job batch
+  int job_model_ = 0;            //!< vote_job: model, subsampled scene size, references, first slot
+  std::size_t job_ns_ = 0, job_refs_ = 0, job_first_ = 0;
   static void refine_job(void* self, std::size_t k);
 };
 

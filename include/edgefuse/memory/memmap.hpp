@@ -134,7 +134,8 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kLocSample, "loc scene sample", uint64_t(c.scene_points_max) * sizeof(uint32_t));
   set(Region::kLocLabels, "loc labels", uint64_t(c.scene_points_max) * sizeof(int32_t));
   set(Region::kLocQueue, "loc queue", uint64_t(c.scene_points_max) * sizeof(uint32_t));
-  set(Region::kLocVotes, "loc votes", uint64_t(c.ppf_points_max) * kPpfAngleBins * sizeof(uint16_t));
+  // localize3: one accumulator per vote chunk (parallel PPF voting)
+  set(Region::kLocVotes, "loc votes", uint64_t(kVoteAccumulators) * c.ppf_points_max * kPpfAngleBins * sizeof(uint16_t));
   set(Region::kLocCandidates, "loc pose candidates", uint64_t(c.hypotheses_max) * sizeof(PoseCandidate));
   set(Region::kLocVerified, "loc verified hypotheses", mm * kClustersPerModel * sizeof(LocalizedObject));
   set(Region::kLocResults, "loc pose list", uint64_t(c.objects_max) * sizeof(LocalizedObject));
