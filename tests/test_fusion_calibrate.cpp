@@ -7,6 +7,7 @@
 
 #include "edgefuse/fusion/align_spaces.hpp"
 #include "edgefuse/fusion/calibrate_pair.hpp"
+#include "edgefuse/fusion/pose_mean.hpp"
 #include "edgefuse/tsdf/integrate.hpp"
 #include "test_tracking_rig.hpp"
 #include "test_support.hpp"
@@ -200,4 +201,37 @@ TEST(PairCalibration, AlignsTwoSpaces) {
   CHECK(r.accepted);
   CHECK(dt < 0.002f);
   CHECK(deg < 0.2f);
+}
+
+// Averaging repeated estimates (edgefused's calib fuse, edgefuse calibrate --frames): estimates
+// scattered symmetrically about a mounting average back to it, with their sample spread; q and -q
+// count as the same rotation.
+TEST(PairCalibration, MeanOfEstimatesAndTheirSpread) {
+  const Pose truth = Pose::from_tq(0.057f, 0.007f, -0.001f, -0.0134f, -0.0187f, 0.019f, 0.99955f);
+  PoseMean m;
+  CHECK_EQUAL(0, m.count());
+  CHECK_TRUE(m.spread().isZero());
+  const float d_m = 0.002f, a_rad = 0.004f;  // 2 mm, 0.23 deg: one ToF frame's scatter
+  for (int s = -1; s <= 1; s += 2) {
+    Pose T = truth;
+    T.t += truth.R * Vec3f(s * d_m, 0, 0);  // along x of the mounting's own frame
+    T.R = truth.R * Eigen::AngleAxisf(s * a_rad, Vec3f::UnitZ()).toRotationMatrix();
+    Vec6f sigma;
+    sigma << 0.001f, 0.001f, 0.001f, 0.0005f, 0.0005f, 0.0005f;
+    m.add(T, sigma);
+  }
+  Pose flipped = truth;  // the same pose; its quaternion may come out as -q elsewhere
+  m.add(flipped);
+  CHECK_EQUAL(3, m.count());
+  const Pose mean = m.mean();
+  CHECK_TRUE((mean.t - truth.t).norm() < 1e-6f);
+  CHECK_TRUE((truth.inverse() * mean).angle_rad() < 1e-5f);
+  // Sample standard deviation of {-d, +d, 0} is d; the other axes scatter only by the tangent-space
+  // approximation (taken at the first estimate, rotated by 2a from the others: 2d sin 2a ~ 3e-5 m),
+  // far below one estimate's own noise.
+  const Vec6f sp = m.spread();
+  DOUBLES_EQUAL(a_rad, sp(2), 1e-5);
+  DOUBLES_EQUAL(d_m, sp(3), 2e-6);
+  CHECK_TRUE(sp(0) < 1e-5f && sp(1) < 1e-5f && sp(4) < 0.05f * d_m && sp(5) < 1e-6f);
+  DOUBLES_EQUAL(2.0 / 3.0 * 0.001, m.mean_sigma()(0), 1e-7);
 }

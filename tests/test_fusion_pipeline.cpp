@@ -191,7 +191,10 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
     ok = p->calibrate_pair("xtion", "tof", r, &why);
   }
   CHECK_TRUE_TEXT(ok, why);
-  // Started at the true mounting: the fit stays within a few mm / tenths of a degree of it.
+  // Started at the true mounting: the mean of the frames' fits stays within a few mm / tenths of a
+  // degree of it. One ToF frame scatters by ~2 mm per axis (up to 5.7 mm seen), so calib fuse
+  // averages kCalibFrames = 5 of them (0.5-2.7 mm seen over repeated runs).
+  CHECK_TRUE(r.frames >= 2);
   CHECK_TRUE(r.moved_mm < 5.0f);
   CHECK_TRUE(r.moved_deg < 1.0f);
   CHECK_FALSE(p->calibrate_pair("tof", "xtion", r, &why));

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "edgefuse/fusion/pose_mean.hpp"
 #include "edgefuse/tracking/tracker.hpp"
 #include "edgefuse/tsdf/integrate.hpp"
 #include "edgefuse/tsdf/integrate_profile.hpp"
@@ -198,9 +199,7 @@ bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, Fr
       return false;
     }
   }
-  Vec3f t_sum = Vec3f::Zero();
-  Eigen::Vector4f q_sum = Eigen::Vector4f::Zero();
-  std::vector<Pose> accepted;
+  PoseMean accepted;
   for (std::size_t i = 0; i < n; ++i) {
     const int j = frame_near(b.seq, a.seq.frames[i].stamp_s);
     if (j < 0) continue;
@@ -230,34 +229,13 @@ bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, Fr
       if (run.first_reason.empty()) run.first_reason = r.reason;
       continue;
     }
-    accepted.push_back(r.T_a_b);
-    t_sum += r.T_a_b.t;
-    Eigen::Vector4f q = r.T_a_b.quaternion().coeffs();
-    if (q.dot(q_sum) < 0.0f) q = -q;
-    q_sum += q;
-    run.sigma += r.sigma;
+    accepted.add(r.T_a_b, r.sigma);
   }
-  run.accepted = int(accepted.size());
+  run.accepted = accepted.count();
   if (run.accepted == 0) return true;
-  const float k = float(run.accepted);
-  run.T_a_b.t = t_sum / k;
-  Eigen::Quaternionf qm;
-  qm.coeffs() = q_sum.normalized();
-  run.T_a_b.R = qm.toRotationMatrix();
-  run.sigma /= k;
-  if (run.accepted > 1) {
-    Vec6f var = Vec6f::Zero();
-    for (const Pose& T : accepted) {
-      // Deviation in B's frame: T_mean^-1 T = exp(xi).
-      const Pose D = run.T_a_b.inverse() * T;
-      const Eigen::AngleAxisf aa(D.R);
-      Vec6f xi;
-      xi.head<3>() = aa.axis() * aa.angle();
-      xi.tail<3>() = D.t;
-      var += xi.cwiseProduct(xi);
-    }
-    run.spread = (var / (k - 1.0f)).cwiseSqrt();
-  }
+  run.T_a_b = accepted.mean();
+  run.sigma = accepted.mean_sigma();
+  run.spread = accepted.spread();
   return true;
 }
 

@@ -24,8 +24,11 @@ struct PipelineStats {
 //! data determined it.
 struct PairCalibrationReport {
   CalibPose T_from_to;                 //!< pose of `to` in `from`'s frame
-  float sigma_rot_deg[3] = {0, 0, 0};  //!< 1 sigma about x, y, z (`to`'s frame; covariance, a lower bound)
-  float sigma_trans_mm[3] = {0, 0, 0}; //!< 1 sigma along x, y, z
+  float sigma_rot_deg[3] = {0, 0, 0};  //!< 1 sigma of the result about x, y, z (`to`'s frame)
+  float sigma_trans_mm[3] = {0, 0, 0}; //!< 1 sigma of the result along x, y, z
+  int frames = 1;                      //!< estimates averaged (one per paired frame)
+  float spread_rot_deg[3] = {0, 0, 0};  //!< scatter of one frame's estimate about x, y, z (0 for one frame)
+  float spread_trans_mm[3] = {0, 0, 0}; //!< scatter of one frame's estimate along x, y, z
   float rms_mm = 0;                    //!< point-to-plane RMS of the inliers
   float inlier_ratio = 0;              //!< inliers / candidates
   int correspondences = 0;             //!< inliers
