@@ -139,6 +139,7 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
       (!maps.colour.empty() && (maps.colour.width != intr.width || maps.colour.height != intr.height)))
     return Status::kInvalidArgument;
   if (!scratch.fits(intr.width, intr.height)) return Status::kCapacityExceeded;
+  if (volume.dim() > kRaycastDimMax) return Status::kCapacityExceeded;
 
   const int tx = FrameScratch::tiles_x(intr.width), ty = FrameScratch::tiles_y(intr.height);
   const std::size_t tiles = FrameScratch::tiles_for(intr.width, intr.height);
@@ -269,7 +270,10 @@ class RayMarcher {
         // The positive band in front of a surface has |tsdf| < 1, so it belongs to surface bricks
         // too: starting at the tiles' near bound still leaves a positive sample before every crossing.
         margin_(real_from<Real>(volume.voxel_m())),
-        want_colour_(!maps.colour.empty() && volume.has_colour()) {}
+        want_colour_(!maps.colour.empty() && volume.has_colour()) {
+    for (int axis = 0; axis < 3; ++axis)
+      for (int c = 0; c < volume.dim(); ++c) axis_index_[axis][c] = axis_part(axis, uint32_t(c));
+  }
 
   // Clears the outputs of pixel (u, v) and sets up its ray; false when there is nothing to march.
   bool start(int u, int v, RayState<Real>& r) const {
@@ -315,10 +319,17 @@ class RayMarcher {
   struct CellAddress {
     uint32_t base, dx, dy, dz;
   };
-  // Linear index of the cell's base voxel (its brick's flag is flags_[base >> 9]).
+  // Linear index of the cell's base voxel (its brick's flag is flags_[base >> 9]); the cell must
+  // lie in the grid. Three table reads instead of ~20 instructions of shifts and multiplications:
+  // it is computed for every sample.
   uint32_t base_index(const int cell[3]) const {
-    const uint32_t x = uint32_t(cell[0]), y = uint32_t(cell[1]), z = uint32_t(cell[2]);
-    return (((x >> 3) + (y >> 3) * nb_ + (z >> 3) * nb2_) << 9) | ((z & 7u) << 6) | ((y & 7u) << 3) | (x & 7u);
+    return axis_index_[0][cell[0]] + axis_index_[1][cell[1]] + axis_index_[2][cell[2]];
+  }
+  // Part of the linear index contributed by coordinate c on `axis` (the sum over the axes is
+  // TsdfVolume::index).
+  uint32_t axis_part(int axis, uint32_t c) const {
+    const uint32_t bricks = axis == 0 ? 1u : (axis == 1 ? nb_ : nb2_);
+    return (((c >> 3) * bricks) << 9) | ((c & 7u) << (3 * axis));
   }
   // The neighbour offsets of a cell whose base index is known: computed only for the samples that
   // read voxels, not for those that the brick flag alone decides.
@@ -353,15 +364,23 @@ class RayMarcher {
     const uint32_t i0 = a.base, i1 = i0 + a.dx, i2 = i0 + a.dy, i3 = i2 + a.dx;
     const uint32_t i4 = i0 + a.dz, i5 = i4 + a.dx, i6 = i4 + a.dy, i7 = i6 + a.dx;
     const int16_t q[8] = {tsdf_[i0], tsdf_[i1], tsdf_[i2], tsdf_[i3], tsdf_[i4], tsdf_[i5], tsdf_[i6], tsdf_[i7]};
-    bool unobserved = false;
-    for (int i = 0; i < 8; ++i) unobserved = unobserved || q[i] == kTsdfUnobserved;
-    if (unobserved) return false;
+    // kTsdfUnobserved is the smallest int16: one test on the minimum.
+    int16_t lowest = q[0];
+    for (int i = 1; i < 8; ++i) lowest = q[i] < lowest ? q[i] : lowest;
+    if (lowest == kTsdfUnobserved) return false;
     Real c[8];
-    for (int i = 0; i < 8; ++i) c[i] = tsdf_fraction(Real(), q[i]);
+    if constexpr (std::is_same<Real, float>::value) {
+      // Interpolate the stored integers and scale once: scaling by a power of two commutes
+      // exactly with the lerps, so the value is bit-identical to scaling each corner first.
+      for (int i = 0; i < 8; ++i) c[i] = float(q[i]);
+    } else {
+      for (int i = 0; i < 8; ++i) c[i] = tsdf_fraction(Real(), q[i]);
+    }
     const Real c00 = c[0] + (c[1] - c[0]) * fx, c10 = c[2] + (c[3] - c[2]) * fx;
     const Real c01 = c[4] + (c[5] - c[4]) * fx, c11 = c[6] + (c[7] - c[6]) * fx;
     const Real c0 = c00 + (c10 - c00) * fy, c1 = c01 + (c11 - c01) * fy;
     out = c0 + (c1 - c0) * fz;
+    if constexpr (std::is_same<Real, float>::value) out *= 1.0f / 32768.0f;
     return true;
   }
   // Trilinear TSDF at grid point g (refinement samples).
@@ -563,6 +582,7 @@ class RayMarcher {
   const uint32_t last_, nb_, nb2_, dy_wrap_, dz_wrap_;
   const Real margin_;
   const bool want_colour_;
+  uint32_t axis_index_[3][kRaycastDimMax];  // axis_part per coordinate (12 KiB of stack)
 };
 
 // Pixels in march order: tile column by tile column (8 columns of the given rows at a time), so
@@ -593,7 +613,7 @@ struct PixelCursor {
 template <class Real>
 void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
                   const RaycastMaps& maps, const FrameScratch& scratch, int row_begin, int row_end) {
-  if (row_begin >= row_end) return;
+  if (row_begin >= row_end || volume.dim() > kRaycastDimMax) return;  // prepare_raycast refused it
   const RayMarcher<Real> marcher(volume, intr, T_world_cam, maps, scratch);
   PixelCursor cursor(intr.width, row_begin, row_end);
   RayState<Real> ray;
