@@ -64,15 +64,19 @@ struct RayDir {
   Real gd[3];
   Real inv[3];
   bool crosses[3];
+  int exit_side[3];   // added to a brick's low face coordinate to get the face the ray leaves by
+  Real last_cell[3];  // t the ray takes to cross 1.01 voxels along each axis (crossed axes only)
   void init(const Real d[3]) {
     const Real tiny = real_from<Real>(1e-4f);
     for (int a = 0; a < 3; ++a) {
       gd[a] = d[a];
       crosses[a] = !(abs_r(d[a]) < tiny);
+      exit_side[a] = d[a] > real_from_int<Real>(0) ? kBrickSide : 0;
       inv[a] = real_from_int<Real>(0);
       if constexpr (std::is_same<Real, float>::value) {
         if (crosses[a]) inv[a] = 1.0f / d[a];
       }
+      last_cell[a] = crosses[a] ? abs_r(t_for(real_from<Real>(1.01f), a)) : real_from_int<Real>(0);
     }
   }
   //! t at which the ray's coordinate on `axis` has moved by `delta` grid units.
@@ -110,13 +114,11 @@ bool clip_to_grid(const RayFrame<Real>& f, const RayDir<Real>& r, Real& t0, Real
 // t at which the ray leaves the brick holding floor(g); `axis` is the face it leaves through.
 template <class Real>
 Real brick_exit(const RayFrame<Real>& f, const RayDir<Real>& r, const int cell[3], int& axis) {
-  const Real zero = real_from_int<Real>(0);
   Real t_exit = real_from_int<Real>(1 << 14);
   axis = 0;
   for (int a = 0; a < 3; ++a) {
     if (!r.crosses[a]) continue;
-    const int lo = cell[a] & ~(kBrickSide - 1);
-    const Real face = real_from_int<Real>(r.gd[a] > zero ? lo + kBrickSide : lo);
+    const Real face = real_from_int<Real>((cell[a] & ~(kBrickSide - 1)) + r.exit_side[a]);
     const Real ta = r.t_for(face - f.g0[a], a);
     if (ta < t_exit) {
       t_exit = ta;
@@ -270,6 +272,7 @@ class RayMarcher {
         // The positive band in front of a surface has |tsdf| < 1, so it belongs to surface bricks
         // too: starting at the tiles' near bound still leaves a positive sample before every crossing.
         margin_(real_from<Real>(volume.voxel_m())),
+        want_vertex_(!maps.vertex.empty()), want_normal_(!maps.normal.empty()), clear_colour_(!maps.colour.empty()),
         want_colour_(!maps.colour.empty() && volume.has_colour()) {
     for (int axis = 0; axis < 3; ++axis)
       for (int c = 0; c < volume.dim(); ++c) axis_index_[axis][c] = axis_part(axis, uint32_t(c));
@@ -281,9 +284,9 @@ class RayMarcher {
     const Real half = real_from<Real>(0.5f);
     const Real one = real_from_int<Real>(1);
     maps_.depth_m.at(u, v) = 0.0f;
-    if (!maps_.vertex.empty()) maps_.vertex.at(u, v) = Vec3f::Zero();
-    if (!maps_.normal.empty()) maps_.normal.at(u, v) = Vec3f::Zero();
-    if (!maps_.colour.empty()) maps_.colour.at(u, v) = Rgba8{};
+    if (want_vertex_) maps_.vertex.at(u, v) = Vec3f::Zero();
+    if (want_normal_) maps_.normal.at(u, v) = Vec3f::Zero();
+    if (clear_colour_) maps_.colour.at(u, v) = Rgba8{};
     // The z range where this tile's surface bricks lie (and a voxel of slack).
     const std::size_t tile = std::size_t(v / FrameScratch::kTile) * tiles_x_ + std::size_t(u / FrameScratch::kTile);
     if (scratch_.model_max_z[tile] < 0.0f) return false;
@@ -419,7 +422,7 @@ class RayMarcher {
       // reaches into the next brick, can hold a crossing. Go to one voxel before that face.
       int axis;
       const Real t_exit = brick_exit(f_, r.dir, cell, axis);
-      const Real t_last_cell = t_exit - abs_r(r.dir.t_for(real_from<Real>(1.01f), axis));
+      const Real t_last_cell = t_exit - r.dir.last_cell[axis];
       if (t_last_cell > r.t + r.min_step) {
         r.t = t_last_cell;
         r.prev_valid = false;
@@ -498,10 +501,10 @@ class RayMarcher {
     const float z = to_float(t_hit);
     const Vec3f ray(to_float(r.rx), to_float(r.ry), 1.0f);
     maps_.depth_m.at(u, v) = z;
-    if (!maps_.vertex.empty()) maps_.vertex.at(u, v) = ray * z;
+    if (want_vertex_) maps_.vertex.at(u, v) = ray * z;
     const Real* gd = r.dir.gd;
     const Real gh[3] = {f_.g0[0] + t_hit * gd[0], f_.g0[1] + t_hit * gd[1], f_.g0[2] + t_hit * gd[2]};
-    if (!maps_.normal.empty()) {
+    if (want_normal_) {
       float grad[3];
       if (gradient(gh, grad)) {
         const Vec3f n_world(grad[0], grad[1], grad[2]);
@@ -581,7 +584,7 @@ class RayMarcher {
   const int tiles_x_;
   const uint32_t last_, nb_, nb2_, dy_wrap_, dz_wrap_;
   const Real margin_;
-  const bool want_colour_;
+  const bool want_vertex_, want_normal_, clear_colour_, want_colour_;
   uint32_t axis_index_[3][kRaycastDimMax];  // axis_part per coordinate (12 KiB of stack)
 };
 
