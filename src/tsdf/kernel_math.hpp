@@ -12,8 +12,8 @@ namespace edgefuse {
 inline bool pixel_of(float x, int size, int& index) {
   // x >= -0.5 and x < size - 0.5, tested on the rounded x + 0.5 itself (the same decisions: near
   // -0.5 the sum is exact, and below size it stays in x's binade): two compares instead of four
-  // operations and a conversion. NaN fails the first test; a huge x converts to a value that
-  // fails the unsigned test (INT_MIN on x86, INT_MAX on ARM).
+  // operations and a conversion. NaN fails the first test. |x| < 2^31 is assumed, as by
+  // floor_int (the kernels' projections are bounded by the volume: |x| < ~1e6 pixels).
   const float shifted = x + 0.5f;
   if (!(shifted >= 0.0f)) return false;
   const int i = int(shifted);
