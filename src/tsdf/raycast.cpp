@@ -266,7 +266,8 @@ class RayMarcher {
              const FrameScratch& scratch)
       : volume_(volume), intr_(intr), T_world_cam_(T_world_cam), maps_(maps), scratch_(scratch),
         f_(make_ray_frame<Real>(volume, intr, T_world_cam)), flags_(volume.brick_flags()),
-        tsdf_(volume.tsdf()), colour_(volume.colour()), colour_weight_(volume.colour_weight()), tiles_x_(FrameScratch::tiles_x(intr.width)), last_(uint32_t(volume.dim() - 1)),
+        tsdf_(volume.tsdf()), colour_(volume.colour()), colour_weight_(volume.colour_weight()),
+        tiles_x_(FrameScratch::tiles_x(intr.width)), last_(uint32_t(volume.dim() - 1)),
         nb_(uint32_t(volume.bricks_per_axis())), nb2_(nb_ * nb_), dy_wrap_(nb_ * kBrickVoxels - 56u),
         dz_wrap_(nb2_ * kBrickVoxels - 448u),
         // The positive band in front of a surface has |tsdf| < 1, so it belongs to surface bricks
