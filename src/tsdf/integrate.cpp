@@ -117,7 +117,8 @@ inline void free_space_update(int16_t* tsdf, uint8_t* weight, std::size_t base, 
 // Classifies a box of voxels (a brick or a part of one) from its 8 corner voxel centres (camera
 // frame: c0 plus any sum of the span vectors) against the depth tiles.
 template <class Real>
-BrickClass classify_box(const IntegrationJob<Real>& job, const Real c0[3], const Real span[3][3], Real near_z) {
+BrickClass classify_box(const IntegrationJob<Real>& job, const Real c0[3], const Real span[3][3], Real near_z,
+                        bool stop_early) {
   const Real one = real_from_int<Real>(1);
   Real z_lo = c0[2], z_hi = c0[2];
   Real u_lo = real_from_int<Real>(1 << 20), u_hi = real_from_int<Real>(-(1 << 20));
@@ -161,6 +162,16 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const Real c0[3], const
         }
         lo = x < lo ? x : lo;
         hi = x > hi ? x : hi;
+      }
+      // A brick's footprint: once the rows read so far rule out both the skip and free space
+      // (below; hi only grows and lo only falls), so does the whole footprint, and the brick goes
+      // to its blocks. Not for the blocks themselves: most of them are decided by a full scan,
+      // and the per-row test would only add to it.
+      if (stop_early && hi != 0) {
+        const Real z_meas_lo = job.depth.metres(uint16_t(lo)), z_meas_hi = job.depth.metres(uint16_t(hi));
+        if (!(z_lo - z_meas_hi > job.rho) &&
+            !(all && z_meas_lo - z_hi > job.trunc && z_meas_lo >= job.min_z && z_meas_hi <= job.max_z))
+          return BrickClass::kVoxels;
       }
     }
   } else {
@@ -310,7 +321,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
     Real c0[3];
     for (int r = 0; r < 3; ++r) c0[r] = job.R[r * 3] * w0[0] + job.R[r * 3 + 1] * w0[1] + job.R[r * 3 + 2] * w0[2] + job.t[r];
 
-    const BrickClass cls = classify_box(job, c0, span, near_z);
+    const BrickClass cls = classify_box(job, c0, span, near_z, true);
     if (cls == BrickClass::kSkip) continue;
     const std::size_t base = std::size_t(brick) * kBrickVoxels;
     bool surface = false, observed = false;
@@ -329,7 +340,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
       for (int r = 0; r < 3; ++r)
         cb[r] = c0[r] + step[0][r] * real_from_int<Real>(off[0]) + step[1][r] * real_from_int<Real>(off[1]) +
                 step[2][r] * real_from_int<Real>(off[2]);
-      const BrickClass sub = classify_box(job, cb, half_span, near_z);
+      const BrickClass sub = classify_box(job, cb, half_span, near_z, false);
       if (sub == BrickClass::kSkip) continue;
       const int first = (off[2] << 6) | (off[1] << 3) | off[0];
       if (sub == BrickClass::kFreeSpace && job.colour_only) continue;

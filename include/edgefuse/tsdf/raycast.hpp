@@ -31,6 +31,10 @@ struct RaycastMaps {
   ImageView<Rgba8> colour;   //!< a = 255 where colour was fused, a = 0 otherwise
 };
 
+//! Largest volume dim() the raycast handles (its per-axis index tables live on the stack);
+//! prepare_raycast refuses larger volumes with kCapacityExceeded.
+inline constexpr int kRaycastDimMax = 1024;
+
 //! Step 1: checks the outputs and projects the surface bricks into the scratch's model tiles.
 //! \param volume the space
 //! \param intr sensor intrinsics (min/max range bound the ray)

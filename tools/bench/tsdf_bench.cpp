@@ -1,0 +1,201 @@
+// Benchmark of the TSDF kernels alone (speed work, round 3): fuses a sequence at its ground-truth
+// poses with the board defaults, then raycasts every pose of the sequence again on the final
+// volume. Prints thread CPU time (CLOCK_THREAD_CPUTIME_ID: the figure that survives a loaded
+// machine) per integration and per raycast, in the build's scalar (float or Q16.16).
+// --dump / --compare write and compare the raycast depth and normal maps of two builds, so a
+// speed change can be shown not to change the result. Host only; allocates freely.
+//
+// usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R]
+//                            [--no-raycast] [--dump FILE] [--compare FILE]
+#include <time.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "args.hpp"
+#include "core_setup.hpp"
+#include "edgefuse/io/dataset.hpp"
+#include "edgefuse/memory/arena.hpp"
+#include "fuse_options.hpp"
+
+using namespace edgefuse;
+using namespace edgefuse::cli;
+
+namespace {
+
+double thread_cpu_ms() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+// Depth of every final raycast, then its normals (x, y, z per pixel), one pose after the other.
+struct MapDump {
+  std::vector<float> values;
+  void add(const RaycastMaps& maps, std::size_t pixels) {
+    values.insert(values.end(), maps.depth_m.data, maps.depth_m.data + pixels);
+    for (std::size_t k = 0; k < pixels; ++k) {
+      const Vec3f n = maps.normal.empty() ? Vec3f::Zero() : maps.normal.data[k];
+      values.push_back(n.x());
+      values.push_back(n.y());
+      values.push_back(n.z());
+    }
+  }
+};
+
+// Prints how the maps of this run differ from those of an earlier run (hit/miss, depth, normal).
+bool compare_dumps(const MapDump& mine, const std::string& path, std::size_t pixels, float voxel_m) {
+  FILE* fp = std::fopen(path.c_str(), "rb");
+  if (fp == nullptr) {
+    std::fprintf(stderr, "edgefuse_tsdf_bench: cannot open --compare file %s\n", path.c_str());
+    return false;
+  }
+  std::vector<float> other(mine.values.size());
+  const std::size_t got = std::fread(other.data(), sizeof(float), other.size(), fp);
+  const bool longer = std::fgetc(fp) != EOF;
+  std::fclose(fp);
+  if (got != other.size() || longer) {
+    std::fprintf(stderr, "edgefuse_tsdf_bench: %s holds maps of another run (size differs)\n", path.c_str());
+    return false;
+  }
+  const std::size_t per_pose = pixels * 4;
+  std::size_t both = 0, only_mine = 0, only_other = 0, over_tenth = 0;
+  double max_dz = 0.0, min_dot = 1.0;
+  for (std::size_t off = 0; off < mine.values.size(); off += per_pose)
+    for (std::size_t k = 0; k < pixels; ++k) {
+      const float a = mine.values[off + k], b = other[off + k];
+      if (a > 0 && b > 0) {
+        ++both;
+        const double dz = std::fabs(double(a) - b);
+        max_dz = std::max(max_dz, dz);
+        if (dz > 0.1 * voxel_m) ++over_tenth;
+        const float* na = &mine.values[off + pixels + 3 * k];
+        const float* nb = &other[off + pixels + 3 * k];
+        if ((na[0] != 0 || na[1] != 0 || na[2] != 0) && (nb[0] != 0 || nb[1] != 0 || nb[2] != 0))
+          min_dot = std::min(min_dot, double(na[0] * nb[0] + na[1] * nb[1] + na[2] * nb[2]));
+      } else if (a > 0) {
+        ++only_mine;
+      } else if (b > 0) {
+        ++only_other;
+      }
+    }
+  std::printf("compare with %s: hit in both %zu, only this run %zu, only the other %zu; max |dz| %.3g m (%.3f voxel), "
+              "%zu pixels over 0.1 voxel; min normal dot %.5f\n",
+              path.c_str(), both, only_mine, only_other, max_dz, max_dz / voxel_m, over_tenth, min_dot);
+  return true;
+}
+
+const char* kUsage =
+    "usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R] [--no-raycast]\n"
+    "                           [--dump FILE] [--compare FILE]\n"
+    "  Fuses DATASET at its ground-truth poses (board defaults; --voxel sets trunc = 4 voxels), timing each\n"
+    "  integration, then raycasts every pose R times (default 3) on the final volume. Thread CPU time.\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args args;
+  std::string err;
+  if (!args.parse(argc - 1, argv + 1, {"sensor", "frames", "voxel", "reps", "dump", "compare"}, {"no-raycast"}, err) ||
+      args.positional().size() != 1) {
+    std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n%s", err.empty() ? "expected one DATASET" : err.c_str(), kUsage);
+    return 2;
+  }
+  const BoardCapacities& board = build_board();
+  FuseSettings s;
+  int frames_max = 0, reps = 3;
+  if (!board_fuse_settings(s, err) || !apply_fuse_options(args, s, frames_max, err) ||
+      (args.has("reps") && !args.get_int("reps", 0, 1000, reps, err))) {
+    std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", err.c_str());
+    return 2;
+  }
+  s.threads = 1;
+  io::DepthSequence seq;
+  if (!io::open_depth_sequence(args.positional()[0], args.get("sensor"), seq, err)) {
+    std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", err.c_str());
+    return 1;
+  }
+  const std::size_t n = std::min<std::size_t>(seq.frames.size(), std::size_t(frames_max));
+  CoreSetup core;
+  std::vector<uint16_t> depth;
+  std::vector<Rgb8> colour;
+  if (n == 0 || !core.init(board, seq.intr, err) || !io::load_depth(seq.frames[0], seq.intr, depth, err) ||
+      !centre_on_view(seq.intr, depth, seq.frames[0].T_world_cam, s, err) || !core.make_volume(s, err)) {
+    std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", n == 0 ? "no frames" : err.c_str());
+    return 1;
+  }
+  const bool use_colour = seq.colour_registered && core.volume.has_colour();
+  const int W = seq.intr.width, H = seq.intr.height;
+  const std::size_t pixels = std::size_t(W) * H;
+  double integrate_ms = 0.0, raycast_fuse_ms = 0.0;
+  const bool cast = !args.has("no-raycast");
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!io::load_depth(seq.frames[i], seq.intr, depth, err) ||
+        (use_colour && !io::load_colour(seq.frames[i], seq.intr, colour, err))) {
+      std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", err.c_str());
+      return 1;
+    }
+    const DepthFrame f = core.stage_frame(depth, use_colour ? &colour : nullptr);
+    double t0 = thread_cpu_ms();
+    integrate<real_t>(core.volume, seq.intr, ImageView<const real_t>(core.ray_norms.data, W, H), f,
+                      seq.frames[i].T_world_cam, core.scratch);
+    integrate_ms += thread_cpu_ms() - t0;
+    if (!cast) continue;
+    t0 = thread_cpu_ms();
+    raycast<real_t>(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps, core.scratch);
+    raycast_fuse_ms += thread_cpu_ms() - t0;
+  }
+  // A checksum of every voxel (distance, weight, colour) and brick flag: equal checksums show that
+  // a faster integration stores exactly the same volume.
+  uint64_t checksum = 1469598103934665603ull;  // FNV-1a
+  auto mix = [&checksum](const void* data, std::size_t bytes) {
+    const unsigned char* b = static_cast<const unsigned char*>(data);
+    for (std::size_t k = 0; k < bytes; ++k) checksum = (checksum ^ b[k]) * 1099511628211ull;
+  };
+  const std::size_t voxels = core.volume.voxel_count();
+  mix(core.volume.tsdf(), voxels * sizeof(int16_t));
+  mix(core.volume.weight(), voxels);
+  if (core.volume.has_colour()) {
+    mix(core.volume.colour(), voxels * sizeof(Rgb8));
+    mix(core.volume.colour_weight(), voxels);
+  }
+  mix(core.volume.brick_flags(), core.volume.brick_count());
+  MapDump dump;
+  double raycast_ms = 0.0, prepare_ms = 0.0;
+  int casts = 0;
+  for (int r = 0; cast && r < reps; ++r)
+    for (std::size_t i = 0; i < n; ++i) {
+      double t0 = thread_cpu_ms();
+      raycast<real_t>(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps, core.scratch);
+      raycast_ms += thread_cpu_ms() - t0;
+      ++casts;
+      if (r == 0) dump.add(core.maps, pixels);
+      t0 = thread_cpu_ms();
+      prepare_raycast(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps, core.scratch);
+      prepare_ms += thread_cpu_ms() - t0;
+    }
+  std::size_t hits = 0;
+  for (std::size_t k = 0; k < pixels; ++k) hits += core.maps.depth_m.data[k] > 0.0f;
+  std::printf("%s %dx%d, %d^3 x %.4g m (%s), %zu frames: integrate %.2f ms/frame thread CPU", seq.root.c_str(), W, H,
+              s.dim, double(s.voxel_m), std::is_same<real_t, float>::value ? "float" : "Q16.16", n, integrate_ms / n);
+  if (cast)
+    std::printf(", raycast %.2f ms after each frame, %.2f ms on the final volume (%d casts; of which prepare %.2f ms), "
+                "hit %.1f%% (last)",
+                raycast_fuse_ms / n, raycast_ms / std::max(casts, 1), casts, prepare_ms / std::max(casts, 1),
+                100.0 * hits / pixels);
+  std::printf("\nvolume checksum %016llx\n", static_cast<unsigned long long>(checksum));
+  if (args.has("dump")) {
+    FILE* fp = std::fopen(args.get("dump").c_str(), "wb");
+    if (fp == nullptr || std::fwrite(dump.values.data(), sizeof(float), dump.values.size(), fp) != dump.values.size()) {
+      std::fprintf(stderr, "edgefuse_tsdf_bench: cannot write --dump file %s\n", args.get("dump").c_str());
+      if (fp != nullptr) std::fclose(fp);
+      return 1;
+    }
+    std::fclose(fp);
+  }
+  if (args.has("compare") && !compare_dumps(dump, args.get("compare"), pixels, s.voxel_m)) return 1;
+  return 0;
+}
