@@ -28,13 +28,18 @@ const char* kUsage =
     "usage: edgefuse fuse RIGSET --sensors A,B,... [--extrinsics true|calibrated|FILE] [--frames N]\n"
     "                     [--voxel M] [--trunc M] [--volume N] [--origin X,Y,Z] [--out FILE.ply|.pcd]\n"
     "                     [--mesh FILE.ply] [--threads N] [--guess tx,ty,tz,rx,ry,rz] [--no-trust]\n"
-    "                     [--no-paint] [--no-filter]\n"
+    "                     [--no-paint] [--no-filter] [--register-laser] [--laser-patch N] [--laser-6dof]\n"
+    "                     [--laser-offset tx,ty,tz,rx,ry,rz]\n"
     "  Fuses the listed sensors of a rig set into one space. Pinhole sensors are placed by\n"
     "  --extrinsics: 'true' (default) = each sensor's own groundtruth.txt; 'calibrated' = the\n"
     "  reference camera's poses (the first listed with colour, else the first pinhole) times the\n"
     "  mounting found by calibration (as `edgefuse calibrate --frames 20`, reference tracked, from\n"
     "  --guess); FILE = the same with\n"
-    "  the mounting read from an extrinsics.txt file. Line scanners use their own poses (the robot's).\n"
+    "  the mounting read from an extrinsics.txt file. Line scanners use their own poses (the robot's);\n"
+    "  --register-laser registers each patch of --laser-patch N profiles (default 300) against the space\n"
+    "  before integrating it (cameras are pushed first), as a translation (--laser-6dof: also rotation).\n"
+    "  --laser-offset puts a known error on every scanner pose (sensor frame; metres, degrees as a\n"
+    "  rotation vector), e.g. to measure the registration.\n"
     "  Weights follow each sensor's noise model (--no-trust: equal weights); colour from the\n"
     "  reference camera is painted onto all geometry it saw (--no-paint: only where its own depth was).\n";
 
@@ -54,8 +59,8 @@ int cmd_fuse_rig(int argc, char** argv) {
   std::string err;
   if (!args.parse(argc, argv,
                   {"sensors", "extrinsics", "frames", "voxel", "trunc", "volume", "origin", "out", "mesh", "threads",
-                   "guess", "sigma-ref", "min-weight"},
-                  {"no-trust", "no-paint", "no-filter"}, err) ||
+                   "guess", "sigma-ref", "min-weight", "laser-patch", "laser-offset"},
+                  {"no-trust", "no-paint", "no-filter", "register-laser", "laser-6dof"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse fuse: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
     return 2;
@@ -76,6 +81,13 @@ int cmd_fuse_rig(int argc, char** argv) {
   if (!args.get_float("sigma-ref", 1e-6f, 1.0f, sigma_ref, err) || !args.get_int("min-weight", 0, 255, min_weight, err))
     return fail(err, 2);
   if (!use_trust) sigma_ref = 0.0f;
+  LaserPushOptions laser;
+  laser.register_patches = args.has("register-laser");
+  laser.verbose = true;
+  laser.reg.translation_only = !args.has("laser-6dof");
+  if (!args.get_int("laser-patch", 1, 100000, laser.patch_profiles, err) ||
+      (args.has("laser-offset") && !parse_guess(args.get("laser-offset"), laser.offset, err)))
+    return fail(err, 2);
 
   const std::string folder = args.positional()[0];
   io::RigSet set;
@@ -150,7 +162,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   pool.start(settings.threads);
   const auto t_start = std::chrono::steady_clock::now();
   if (!push_rig_frames(rs, core, pool, mount, mounted, std::size_t(frames_max), filter, true, sigma_ref,
-                       filter_scratch, err, true))
+                       filter_scratch, err, true, laser))
     return fail(err);
   if (paint && ref >= 0 && cams[std::size_t(ref)].seq.colour_registered && core.volume.has_colour()) {
     PinholeSlot& cam = cams[std::size_t(ref)];
