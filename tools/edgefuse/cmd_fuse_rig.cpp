@@ -28,8 +28,8 @@ const char* kUsage =
     "usage: edgefuse fuse RIGSET --sensors A,B,... [--extrinsics true|calibrated|FILE] [--frames N]\n"
     "                     [--voxel M] [--trunc M] [--volume N] [--origin X,Y,Z] [--out FILE.ply|.pcd]\n"
     "                     [--mesh FILE.ply] [--threads N] [--guess tx,ty,tz,rx,ry,rz] [--no-trust]\n"
-    "                     [--no-paint] [--no-filter] [--register-laser] [--laser-patch N] [--laser-6dof]\n"
-    "                     [--laser-offset tx,ty,tz,rx,ry,rz]\n"
+    "                     [--no-paint] [--no-filter] [--tof-bilateral] [--register-laser] [--laser-patch N]\n"
+    "                     [--laser-6dof] [--laser-offset tx,ty,tz,rx,ry,rz]\n"
     "  Fuses the listed sensors of a rig set into one space. Pinhole sensors are placed by\n"
     "  --extrinsics: 'true' (default) = each sensor's own groundtruth.txt; 'calibrated' = the\n"
     "  reference camera's poses (the first listed with colour, else the first pinhole) times the\n"
@@ -41,7 +41,8 @@ const char* kUsage =
     "  --laser-offset puts a known error on every scanner pose (sensor frame; metres, degrees as a\n"
     "  rotation vector), e.g. to measure the registration.\n"
     "  Weights follow each sensor's noise model (--no-trust: equal weights); colour from the\n"
-    "  reference camera is painted onto all geometry it saw (--no-paint: only where its own depth was).\n";
+    "  reference camera is painted onto all geometry it saw (--no-paint: only where its own depth was).\n"
+    "  ToF frames get the amplitude and jump-edge filters but no bilateral smoothing (--tof-bilateral: they do).\n";
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -60,7 +61,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   if (!args.parse(argc, argv,
                   {"sensors", "extrinsics", "frames", "voxel", "trunc", "volume", "origin", "out", "mesh", "threads",
                    "guess", "sigma-ref", "min-weight", "laser-patch", "laser-offset"},
-                  {"no-trust", "no-paint", "no-filter", "register-laser", "laser-6dof"}, err) ||
+                  {"no-trust", "no-paint", "no-filter", "register-laser", "laser-6dof", "tof-bilateral"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse fuse: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
     return 2;
@@ -106,6 +107,12 @@ int cmd_fuse_rig(int argc, char** argv) {
   if (!core.init(board, ref >= 0 ? cams[std::size_t(ref)].seq.intr : init_intr, err)) return fail(err);
   ImageView<uint16_t> filter_scratch;
   if (!bind_rig_sensors(rs, core, board, filter_scratch, err)) return fail(err);
+  // ToF frames are not bilateral-smoothed before fusion (--tof-bilateral: they are): with the ToF's
+  // noise (6.7 mm median) its range sigma mixes the floor with the tops of the objects on it, which
+  // lifted the fused floor by 1.85 mm on bin_rig_a; the TSDF's own average denoises in 3-D without
+  // crossing edges (BENCHMARKS "Multi-sensor fusion, round 3").
+  for (PinholeSlot& c : cams)
+    if (c.tof && !args.has("tof-bilateral")) c.filters.bilateral_enabled = false;
 
   // Volume placement.
   if (!settings.origin_given && !place_rig_volume(rs, settings, err)) return fail(err);

@@ -60,12 +60,14 @@ struct NoiseModel {
     }
     return a_m;
   }
-  //! Trust in (0, 1] relative to sigma_ref (full trust at or below it).
+  //! Trust in (0, cap] relative to sigma_ref (full trust at or below it).
   //! \param sigma_ref_m noise that earns full weight  \param z_m z-depth  \param amplitude raw (ToF)
-  float trust(float sigma_ref_m, float z_m, float amplitude = 0.0f) const {
+  //! \param cap largest trust returned (1: a pinhole trust map in 1/255; a line scanner may exceed 1,
+  //!        see kProfileTrustMax in integrate_profile.hpp)
+  float trust(float sigma_ref_m, float z_m, float amplitude = 0.0f, float cap = 1.0f) const {
     const float r = sigma_ref_m / sigma_m(z_m, amplitude);
     const float t = r * r;
-    return t < 1.0f ? t : 1.0f;
+    return t < cap ? t : cap;
   }
 };
 
