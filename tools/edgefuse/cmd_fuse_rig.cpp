@@ -29,7 +29,7 @@ const char* kUsage =
     "                     [--voxel M] [--trunc M] [--volume N] [--origin X,Y,Z] [--out FILE.ply|.pcd]\n"
     "                     [--mesh FILE.ply] [--threads N] [--guess tx,ty,tz,rx,ry,rz] [--no-trust]\n"
     "                     [--no-paint] [--no-filter] [--tof-bilateral] [--register-laser] [--laser-patch N]\n"
-    "                     [--laser-6dof] [--laser-offset tx,ty,tz,rx,ry,rz]\n"
+    "                     [--laser-6dof] [--laser-offset tx,ty,tz,rx,ry,rz] [--max-sigma M]\n"
     "  Fuses the listed sensors of a rig set into one space. Pinhole sensors are placed by\n"
     "  --extrinsics: 'true' (default) = each sensor's own groundtruth.txt; 'calibrated' = the\n"
     "  reference camera's poses (the first listed with colour, else the first pinhole) times the\n"
@@ -42,7 +42,9 @@ const char* kUsage =
     "  rotation vector), e.g. to measure the registration.\n"
     "  Weights follow each sensor's noise model (--no-trust: equal weights); colour from the\n"
     "  reference camera is painted onto all geometry it saw (--no-paint: only where its own depth was).\n"
-    "  ToF frames get the amplitude and jump-edge filters but no bilateral smoothing (--tof-bilateral: they do).\n";
+    "  ToF frames get the amplitude and jump-edge filters but no bilateral smoothing (--tof-bilateral: they do).\n"
+    "  --max-sigma M: pixels whose modelled noise exceeds M metres are not integrated (default: half the\n"
+    "  truncation, the noise the space can hold; 0: all pixels; needs the noise models, not with --no-trust).\n";
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -60,7 +62,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   std::string err;
   if (!args.parse(argc, argv,
                   {"sensors", "extrinsics", "frames", "voxel", "trunc", "volume", "origin", "out", "mesh", "threads",
-                   "guess", "sigma-ref", "min-weight", "laser-patch", "laser-offset"},
+                   "guess", "sigma-ref", "min-weight", "laser-patch", "laser-offset", "max-sigma"},
                   {"no-trust", "no-paint", "no-filter", "register-laser", "laser-6dof", "tof-bilateral"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse fuse: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
@@ -113,6 +115,13 @@ int cmd_fuse_rig(int argc, char** argv) {
   // crossing edges (BENCHMARKS "Multi-sensor fusion, round 3").
   for (PinholeSlot& c : cams)
     if (c.tof && !args.has("tof-bilateral")) c.filters.bilateral_enabled = false;
+  // Noise gate: a pixel noisier than half the truncation (its +-2 sigma leave the band, so the
+  // clipping at +-trunc biases its average and its noise leaves zero crossings in the band) is not
+  // integrated. --max-sigma 0 integrates everything (more coverage, ToF-accuracy surface).
+  float max_sigma = 0.5f * settings.trunc_m;
+  if (!args.get_float("max-sigma", 0.0f, 1.0f, max_sigma, err)) return fail(err, 2);
+  if (use_trust)
+    for (PinholeSlot& c : cams) c.sigma_max_m = max_sigma;
 
   // Volume placement.
   if (!settings.origin_given && !place_rig_volume(rs, settings, err)) return fail(err);

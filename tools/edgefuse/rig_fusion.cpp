@@ -77,11 +77,15 @@ bool PinholeSlot::stage(std::size_t i, bool filter, bool with_colour, float sigm
     frame.colour = colour;
   }
   if (sigma_ref_m > 0.0f) {
-    if (build_trust_map(noise, sigma_ref_m, depth, intr.depth_scale, amp, trust) != Status::kOk) {
+    if (build_trust_map(noise, sigma_ref_m, depth, intr.depth_scale, amp, trust, sigma_max_m) != Status::kOk) {
       err = f.depth_path + ": trust map failed";
       return false;
     }
     frame.trust = trust;
+    if (sigma_max_m > 0.0f)  // a gated pixel carves no free space either
+      for (int v = 0; v < intr.height; ++v)
+        for (int u = 0; u < intr.width; ++u)
+          if (trust.at(u, v) == 0) depth.at(u, v) = 0;
   }
   return true;
 }

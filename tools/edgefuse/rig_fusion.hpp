@@ -40,6 +40,9 @@ struct PinholeSlot {
   //! trust map (sigma_ref_m > 0) into `frame`.
   bool stage(std::size_t i, bool filter, bool with_colour, float sigma_ref_m, ImageView<uint16_t> filter_scratch,
              DepthFrame& frame, std::string& err);
+  //! Noise gate of the trust map (build_trust_map's sigma_max_m; 0: none): pixels noisier than this
+  //! are dropped from the staged depth (no surface, no free space).
+  float sigma_max_m = 0.0f;
 };
 
 //! Index of the frame of `seq` whose stamp is nearest to stamp_s (within 0.02 s), or -1.

@@ -78,7 +78,10 @@ struct NoiseModel {
 //! \param depth_scale raw / depth_scale = metres
 //! \param amplitude ToF amplitude image (same size) or empty
 //! \param trust output, same size as depth
+//! \param sigma_max_m noise gate (0: none): a pixel noisier than this gets trust 0 (no sample).
+//!        A truncated SDF cannot hold a measurement whose noise is comparable to its truncation: the
+//!        clipping at +-trunc biases its average and its noise leaves zero crossings in the band.
 Status build_trust_map(const NoiseModel& model, float sigma_ref_m, ImageView<const uint16_t> depth, float depth_scale,
-                       ImageView<const uint16_t> amplitude, ImageView<uint8_t> trust);
+                       ImageView<const uint16_t> amplitude, ImageView<uint8_t> trust, float sigma_max_m = 0.0f);
 
 }  // namespace edgefuse
