@@ -29,7 +29,8 @@ const char* kUsage =
     "                     [--voxel M] [--trunc M] [--volume N] [--origin X,Y,Z] [--out FILE.ply|.pcd]\n"
     "                     [--mesh FILE.ply] [--threads N] [--guess tx,ty,tz,rx,ry,rz] [--no-trust]\n"
     "                     [--no-paint] [--no-filter] [--tof-bilateral] [--register-laser] [--laser-patch N]\n"
-    "                     [--laser-6dof] [--laser-offset tx,ty,tz,rx,ry,rz] [--max-sigma M]\n"
+    "                     [--laser-6dof] [--laser-min-eigen R] [--laser-offset tx,ty,tz,rx,ry,rz]\n"
+    "                     [--max-sigma M]\n"
     "  Fuses the listed sensors of a rig set into one space. Pinhole sensors are placed by\n"
     "  --extrinsics: 'true' (default) = each sensor's own groundtruth.txt; 'calibrated' = the\n"
     "  reference camera's poses (the first listed with colour, else the first pinhole) times the\n"
@@ -37,7 +38,8 @@ const char* kUsage =
     "  --guess); FILE = the same with\n"
     "  the mounting read from an extrinsics.txt file. Line scanners use their own poses (the robot's);\n"
     "  --register-laser registers each patch of --laser-patch N profiles (default 300) against the space\n"
-    "  before integrating it (cameras are pushed first), as a translation (--laser-6dof: also rotation).\n"
+    "  before integrating it (cameras are pushed first), as a translation (--laser-6dof: also rotation);\n"
+    "  a patch is refused unless every direction's eigenvalue is at least R (default 0.003) of the largest.\n"
     "  --laser-offset puts a known error on every scanner pose (sensor frame; metres, degrees as a\n"
     "  rotation vector), e.g. to measure the registration.\n"
     "  Weights follow each sensor's noise model (--no-trust: equal weights); colour from the\n"
@@ -62,7 +64,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   std::string err;
   if (!args.parse(argc, argv,
                   {"sensors", "extrinsics", "frames", "voxel", "trunc", "volume", "origin", "out", "mesh", "threads",
-                   "guess", "sigma-ref", "min-weight", "laser-patch", "laser-offset", "max-sigma"},
+                   "guess", "sigma-ref", "min-weight", "laser-patch", "laser-offset", "laser-min-eigen", "max-sigma"},
                   {"no-trust", "no-paint", "no-filter", "register-laser", "laser-6dof", "tof-bilateral"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse fuse: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
@@ -88,6 +90,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   laser.register_patches = args.has("register-laser");
   laser.verbose = true;
   laser.reg.translation_only = !args.has("laser-6dof");
+  if (!args.get_float("laser-min-eigen", 1e-6f, 1.0f, laser.reg.min_eigen_ratio, err)) return fail(err, 2);
   if (!args.get_int("laser-patch", 1, 100000, laser.patch_profiles, err) ||
       (args.has("laser-offset") && !parse_guess(args.get("laser-offset"), laser.offset, err)))
     return fail(err, 2);
