@@ -91,9 +91,12 @@ int cmd_fuse_rig(int argc, char** argv) {
   laser.verbose = true;
   laser.reg.translation_only = !args.has("laser-6dof");
   if (!args.get_float("laser-min-eigen", 1e-6f, 1.0f, laser.reg.min_eigen_ratio, err)) return fail(err, 2);
-  if (!args.get_int("laser-patch", 1, 100000, laser.patch_profiles, err) ||
-      (args.has("laser-offset") && !parse_guess(args.get("laser-offset"), laser.offset, err)))
+  if (!args.get_int("laser-patch", 1, 100000, laser.patch_profiles, err)) return fail(err, 2);
+  if (args.has("laser-offset") && !parse_guess(args.get("laser-offset"), laser.offset, err)) {
+    const std::string guess = "--guess";  // parse_guess names its own option
+    if (err.compare(0, guess.size(), guess) == 0) err = "--laser-offset" + err.substr(guess.size());
     return fail(err, 2);
+  }
 
   const std::string folder = args.positional()[0];
   io::RigSet set;
