@@ -45,8 +45,8 @@ const char* kUsage =
     "  Weights follow each sensor's noise model (--no-trust: equal weights); colour from the\n"
     "  reference camera is painted onto all geometry it saw (--no-paint: only where its own depth was).\n"
     "  ToF frames get the amplitude and jump-edge filters but no bilateral smoothing (--tof-bilateral: they do).\n"
-    "  --max-sigma M: pixels whose modelled noise exceeds M metres are not integrated (default: half the\n"
-    "  truncation, the noise the space can hold; 0: all pixels; needs the noise models, not with --no-trust).\n";
+    "  --max-sigma M: pixels whose modelled noise exceeds M metres are not integrated (default 0: all;\n"
+    "  half the truncation is the noise the space can hold; needs the noise models, not with --no-trust).\n";
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -121,10 +121,12 @@ int cmd_fuse_rig(int argc, char** argv) {
   // crossing edges (BENCHMARKS "Multi-sensor fusion, round 3").
   for (PinholeSlot& c : cams)
     if (c.tof && !args.has("tof-bilateral")) c.filters.bilateral_enabled = false;
-  // Noise gate: a pixel noisier than half the truncation (its +-2 sigma leave the band, so the
-  // clipping at +-trunc biases its average and its noise leaves zero crossings in the band) is not
-  // integrated. --max-sigma 0 integrates everything (more coverage, ToF-accuracy surface).
-  float max_sigma = 0.5f * settings.trunc_m;
+  // Noise gate (off by default): a pixel noisier than M is not integrated. M = trunc/2 is the
+  // noise the truncated space can hold (+-2 sigma inside +-trunc; beyond, the clipping biases the
+  // average and the noise leaves zero crossings in the band) - but on bin_rig_a at 2 mm voxels it
+  // drops every ToF pixel, so by default every sensor's data is fused (where only the ToF sees,
+  // its accuracy is what there is) and the gate is the user's choice (BENCHMARKS round 3).
+  float max_sigma = 0.0f;
   if (!args.get_float("max-sigma", 0.0f, 1.0f, max_sigma, err)) return fail(err, 2);
   if (use_trust)
     for (PinholeSlot& c : cams) c.sigma_max_m = max_sigma;

@@ -82,10 +82,14 @@ bool PinholeSlot::stage(std::size_t i, bool filter, bool with_colour, float sigm
       return false;
     }
     frame.trust = trust;
-    if (sigma_max_m > 0.0f)  // a gated pixel carves no free space either
-      for (int v = 0; v < intr.height; ++v)
-        for (int u = 0; u < intr.width; ++u)
-          if (trust.at(u, v) == 0) depth.at(u, v) = 0;
+    for (int v = 0; v < intr.height; ++v)
+      for (int u = 0; u < intr.width; ++u) {
+        if (depth.at(u, v) == 0) continue;
+        ++staged_pixels;
+        if (trust.at(u, v) != 0) continue;
+        ++gated_pixels;
+        depth.at(u, v) = 0;  // a gated pixel carves no free space either
+      }
   }
   return true;
 }
@@ -403,9 +407,14 @@ bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const st
       }
       ++pushed;
     }
-    if (verbose)
-      std::printf("%s: %zu frames pushed (%s%s%s)\n", cam.seq.sensor_name.c_str(), pushed,
-                  cam.tof ? "ToF" : "structured light", filter ? ", pre-filtered" : "", colour ? ", colour" : "");
+    if (verbose) {
+      char gate[96] = "";
+      if (cam.sigma_max_m > 0.0f && cam.staged_pixels > 0)
+        std::snprintf(gate, sizeof(gate), ", noise gate %.1f mm dropped %.1f %% of its pixels", 1e3f * cam.sigma_max_m,
+                      100.0 * double(cam.gated_pixels) / double(cam.staged_pixels));
+      std::printf("%s: %zu frames pushed (%s%s%s%s)\n", cam.seq.sensor_name.c_str(), pushed,
+                  cam.tof ? "ToF" : "structured light", filter ? ", pre-filtered" : "", colour ? ", colour" : "", gate);
+    }
   }
   for (std::size_t k = 0; k < rs.scans.size(); ++k) {
     const io::LineScan& scan = rs.scans[k];

@@ -43,6 +43,8 @@ struct PinholeSlot {
   //! Noise gate of the trust map (build_trust_map's sigma_max_m; 0: none): pixels noisier than this
   //! are dropped from the staged depth (no surface, no free space).
   float sigma_max_m = 0.0f;
+  std::size_t staged_pixels = 0;  //!< pixels with depth staged with a trust map (after the filters)
+  std::size_t gated_pixels = 0;   //!< of those, dropped by the noise gate
 };
 
 //! Index of the frame of `seq` whose stamp is nearest to stamp_s (within 0.02 s), or -1.
