@@ -1,8 +1,7 @@
 # ctest script (fusion round 3, issue 4) on bin_rig_a:
 #  - `edgefuse fuse --sensors xtion,tof,laser --frames 5 --laser-offset ... --register-laser`: a 2.7 mm error put on
 #    every scanner pose is registered away (the first profile ends within 0.5 mm of its recorded,
-#    exact pose; without --register-laser it stays 2.7 mm off; the xtion alone does not pin the
-#    sweep in all three directions - the ToF adds the objects' sides);
+#    exact pose; without --register-laser it stays 2.7 mm off);
 #  - `edgefuse calibrate --store DIR`: a new store gets seq 1 in calib_a.bin, the next save seq 2 in
 #    calib_b.bin; a store with no valid slot is refused, naming the slot file, and left as it was.
 # Variables: EDGEFUSE (CLI), DATA (shared data folder), WORK (scratch folder).
