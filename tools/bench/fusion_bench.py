@@ -193,7 +193,7 @@ def main():
             ("fused, laser registered", ["--sensors", "xtion,tof,laser", "--register-laser"])]
     clouds = {}
     for name, opts in runs:
-        path = os.path.join(a.workdir, re.sub(r"[^a-z]+", "_", name).strip("_") + ".ply")
+        path = os.path.join(a.workdir, re.sub(r"[^a-z0-9]+", "_", name).strip("_") + ".ply")
         t0 = time.time()
         out = run([ef, "fuse", a.rig] + opts + ["--origin", a.origin, "--out", path])
         last = out.strip().splitlines()[-1]
