@@ -149,6 +149,27 @@ TEST(FusionColour, NoiseModels) {
         Status::kInvalidArgument);
 }
 
+// Noise gate (`fuse --sensors --max-sigma`, default trunc / 2): a pixel whose modelled noise exceeds
+// the gate gets trust 0 (no sample); the others keep their trust; a negative gate is refused.
+TEST(FusionColour, NoiseGateDropsNoisyPixels) {
+  const NoiseModel tof = NoiseModel::time_of_flight();
+  // sigma: 0.7 m at a_n 1 -> 3.5 mm; 1.5 m at a_n 1 -> 7.5 mm; 0.7 m at a_n 0.005 -> 20 mm (cap)
+  uint16_t d[4] = {0, 3500, 7500, 3500};
+  uint16_t a[4] = {0, 20000, 20000, 100};
+  uint8_t open[4], gated[4];
+  CHECK(build_trust_map(tof, 0.001f, ImageView<const uint16_t>(d, 4, 1), 5000.0f, ImageView<const uint16_t>(a, 4, 1),
+                        ImageView<uint8_t>(open, 4, 1)) == Status::kOk);
+  CHECK(build_trust_map(tof, 0.001f, ImageView<const uint16_t>(d, 4, 1), 5000.0f, ImageView<const uint16_t>(a, 4, 1),
+                        ImageView<uint8_t>(gated, 4, 1), 0.004f) == Status::kOk);
+  LONGS_EQUAL(0, gated[0]);
+  LONGS_EQUAL(open[1], gated[1]);  // 3.5 mm <= 4 mm: kept as it was
+  LONGS_EQUAL(0, gated[2]);        // 7.5 mm
+  LONGS_EQUAL(0, gated[3]);        // 20 mm
+  CHECK(open[2] >= 1 && open[3] >= 1);
+  CHECK(build_trust_map(tof, 0.001f, ImageView<const uint16_t>(d, 4, 1), 5000.0f, {}, ImageView<uint8_t>(gated, 4, 1),
+                        -0.001f) == Status::kInvalidArgument);
+}
+
 // A trusted and a distrusted sensor disagree by 2 cm on a wall: the fused surface lies close to
 // the trusted one. Trust 1/4 -> 2 of 8 weight units per sample: 2/10 of the way. A sub-unit sample
 // (trust 1/255) fills an empty voxel at one unit but is skipped where a full sample exists.

@@ -281,3 +281,105 @@ TEST(LineScanner, FlatPatchIsRefused) {
   CHECK(!r.accepted);
   CHECK(r.observable <= 3);
 }
+
+// Translation-only registration (`edgefuse fuse --register-laser`: the robot's orientation is
+// trusted, encoder and hand-eye errors are mostly offsets): a patch 1.5 mm off is moved back, in
+// the float and the Q16.16 build alike, and the registration allocates nothing.
+TEST(LineScanner, TranslationOnlyRegistrationFloatAndFixed) {
+  TsdfVolume vol;
+  const Scene scene = bin_scene();
+  sweep<float>(vol, scene, 0.001f);
+  Pose T_err;
+  T_err.t = Vec3f(0.0008f, -0.001f, 0.0007f);
+  make_patch(scene, T_err);
+  ProfileRegistrationParams p;
+  p.translation_only = true;
+  p.min_eigen_ratio = 3e-3f;  // `fuse --register-laser`'s default
+  ProfileRegistrationResult rf, rq;
+  alloc_count_start();
+  CHECK(register_profiles<float>(vol, scanner(), g_patch, g_patch_pose, 30, p, rf) == Status::kOk);
+  CHECK(register_profiles<Fixed>(vol, scanner(), g_patch, g_patch_pose, 30, p, rq) == Status::kOk);
+  LONGS_EQUAL(0, alloc_count());
+  for (const ProfileRegistrationResult* r : {&rf, &rq}) {
+    const Pose residual = r->T_correction * T_err;
+    std::printf("\n  translation-only registration: %s, %d points, %d of 3 directions, rms %.3f mm, left %.3f mm",
+                r->accepted ? "accepted" : "refused", r->points, r->observable, 1e3f * r->rms_m,
+                1e3f * residual.t.norm());
+    CHECK(r->accepted);
+    LONGS_EQUAL(3, r->observable);
+    CHECK(r->T_correction.angle_rad() < 1e-6f);  // no rotation is estimated
+    // The space is good to ~0.3 mm rms at 2 mm voxels (edges, the sphere's flanks; the 6-dof test
+    // above lands at 0.35 mm rms): the patch lands within 0.45 mm, from 1.5 mm.
+    CHECK(residual.t.norm() < 0.45e-3f);
+    CHECK(residual.t.norm() < T_err.t.norm() / 3);
+  }
+  // Float and fixed-point spaces' trilinear samples differ by the Q16.16 rounding only.
+  CHECK((rf.T_correction.t - rq.T_correction.t).norm() < 0.05e-3f);
+}
+
+// A floor-only patch pins its height only: translation-only registration refuses it too.
+TEST(LineScanner, FlatPatchTranslationOnlyIsRefused) {
+  TsdfVolume vol;
+  Scene floor;
+  floor.add_plane(Vec3f(0, 0, 1), 0.0f);
+  sweep<float>(vol, floor, 0.001f);
+  make_patch(floor, Pose());
+  ProfileRegistrationParams p;
+  p.translation_only = true;
+  for (float ratio : {1e-2f, 3e-3f}) {  // 3e-3: `fuse --register-laser`'s default
+    p.min_eigen_ratio = ratio;
+    ProfileRegistrationResult r;
+    CHECK(register_profiles<float>(vol, scanner(), g_patch, g_patch_pose, 30, p, r) == Status::kOk);
+    CHECK(!r.accepted);
+    LONGS_EQUAL(1, r.observable);
+  }
+}
+
+namespace {
+// Five sweeps of a sensor 1 mm off (ranges + 1 mm, trust 1: a camera-like average of ~80 weight
+// units), then one exact sweep at `trust`; returns the median |model - exact| range at a pose
+// between two profiles.
+template <class Real>
+float biased_then_exact(const Scene& scene, float trust) {
+  TsdfVolume vol;
+  vol.init(g_storage.view(false), kDim, Vec3f(-0.064f, -0.064f, -0.03f), TsdfParams::defaults_for(kVoxel, 4 * kVoxel));
+  const LineScannerModel m = scanner();
+  LineScannerTables<Real> tab = tables<Real>();
+  CHECK(tab.build(m) == Status::kOk);
+  for (int pass = 0; pass <= 5; ++pass)
+    for (float y = -0.02f; y <= 0.02f + 1e-6f; y += 0.001f) {
+      render_profile(scene, m, scanner_pose(y), g_ranges);
+      if (pass < 5)
+        for (int i = 0; i < m.beams; ++i) g_ranges[i] = g_ranges[i] > 0.0f ? g_ranges[i] + 0.001f : 0.0f;
+      CHECK(integrate_profile<Real>(vol, m, tab, g_ranges, scanner_pose(y), 0.0f, pass < 5 ? 1.0f : trust) ==
+            Status::kOk);
+    }
+  float med, p95;
+  int hits;
+  round_trip<Real>(vol, scene, 0.0005f, med, p95, hits);
+  CHECK(hits > 300);
+  return med;
+}
+}  // namespace
+
+// Trust above 1 (issue 4 item 3, "how much do I trust a certain sensor"): a 20 um scanner is ~50x
+// finer than sigma_ref, so its samples must outweigh a camera's average where it measured. With
+// trust capped at 1 the exact sweep moves the 1 mm-off surface by ~1/6 only; at kProfileTrustMax
+// (255 weight units a sample) it lands within 0.25 mm (float and Q16.16); beyond it is refused.
+TEST(LineScanner, FineScannerOutweighsACoarseAverage) {
+  Scene floor;
+  floor.add_plane(Vec3f(0, 0, 1), 0.0f);
+  const float capped_f = biased_then_exact<float>(floor, 1.0f);
+  const float full_f = biased_then_exact<float>(floor, kProfileTrustMax);
+  const float full_q = biased_then_exact<Fixed>(floor, kProfileTrustMax);
+  std::printf("\n  1 mm-off average, then one exact sweep: trust 1 leaves %.3f mm, trust %.2f leaves %.3f mm "
+              "(Q16.16 %.3f mm)\n", 1e3f * capped_f, kProfileTrustMax, 1e3f * full_f, 1e3f * full_q);
+  CHECK(capped_f > 0.6e-3f);
+  CHECK(full_f < 0.25e-3f);
+  CHECK(full_q < 0.25e-3f);
+  TsdfVolume vol;
+  sweep<float>(vol, floor, 0.01f);
+  LineScannerTables<float> tab = tables<float>();
+  CHECK(integrate_profile<float>(vol, scanner(), tab, g_ranges, scanner_pose(0.0f), 0.0f, kProfileTrustMax * 1.01f) ==
+        Status::kInvalidArgument);
+}

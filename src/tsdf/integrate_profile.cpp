@@ -44,7 +44,7 @@ Status integrate_profile(TsdfVolume& volume, const LineScannerModel& model, cons
                          ProfilePushStats* stats) {
   if (!volume.initialised()) return Status::kNotInitialised;
   if (model.validate() != Status::kOk || ranges_m == nullptr || tables.tan_theta == nullptr ||
-      tables.capacity < model.beams || !(trust > 0.0f) || trust > 1.0f || plane_band_m < 0.0f)
+      tables.capacity < model.beams || !(trust > 0.0f) || trust > kProfileTrustMax || plane_band_m < 0.0f)
     return Status::kInvalidArgument;
   if (!T_world_sensor.R.allFinite() || !T_world_sensor.t.allFinite()) return Status::kInvalidArgument;
   if (stats != nullptr) *stats = ProfilePushStats{};
@@ -73,7 +73,10 @@ Status integrate_profile(TsdfVolume& volume, const LineScannerModel& model, cons
   const Real* tan_t = tables.tan_theta;
   const int last = model.beams - 1;
   const uint32_t trust_q8 = uint32_t(std::lround(trust * 256.0f)) > 0 ? uint32_t(std::lround(trust * 256.0f)) : 1u;
-  const int32_t full_weight = int32_t((uint32_t(WeightTable::kOne) * trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
+  // A sample weighs at most 255 units (trust kProfileTrustMax): the running average's divisor stays
+  // within the reciprocal table (old + new <= 510) and |value x weight| sums within 2^24.
+  const int32_t full_weight_raw = int32_t((uint32_t(WeightTable::kOne) * trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
+  const int32_t full_weight = full_weight_raw > 255 ? 255 : full_weight_raw;
   const uint16_t* shape = volume.weight_table().shape;
   const uint8_t max_weight = p.max_weight;
   int16_t* tsdf = volume.tsdf();
@@ -132,6 +135,7 @@ Status integrate_profile(TsdfVolume& volume, const LineScannerModel& model, cons
                 int32_t k = floor_int((zero - d - eps) * band_to_index);
                 k = k < 0 ? 0 : (k >= WeightTable::kSize ? WeightTable::kSize - 1 : k);
                 wt = int32_t((shape[k] * trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
+                wt = wt > 255 ? 255 : wt;
                 if (wt == 0) continue;
               }
               int32_t q = d >= trunc ? kTsdfMax : round_int(d * inv_trunc * q_scale);

@@ -95,12 +95,23 @@ Status register_profiles(const TsdfVolume& volume, const LineScannerModel& model
     out.points = used;
     out.rms_m = used > 0 ? float(std::sqrt(rr / used)) : 0.0f;
     if (used < params.min_points) return Status::kOk;
-    const Eigen::SelfAdjointEigenSolver<Mat6d> eig(A);
-    const Vec6d lambda = eig.eigenvalues();
-    out.observable = 0;
-    for (int a = 0; a < 6; ++a) out.observable += lambda(a) >= double(params.min_eigen_ratio) * lambda(5);
-    if (out.observable < 6) return Status::kOk;
-    const Vec6d xi = -A.ldlt().solve(b);
+    Vec6d xi = Vec6d::Zero();
+    if (params.translation_only) {
+      const Eigen::Matrix3d At = A.block<3, 3>(3, 3);
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(At);
+      const Eigen::Vector3d lambda = eig.eigenvalues();
+      out.observable = 0;
+      for (int a = 0; a < 3; ++a) out.observable += lambda(a) >= double(params.min_eigen_ratio) * lambda(2);
+      if (out.observable < 3) return Status::kOk;
+      xi.tail<3>() = -At.ldlt().solve(b.tail<3>());
+    } else {
+      const Eigen::SelfAdjointEigenSolver<Mat6d> eig(A);
+      const Vec6d lambda = eig.eigenvalues();
+      out.observable = 0;
+      for (int a = 0; a < 6; ++a) out.observable += lambda(a) >= double(params.min_eigen_ratio) * lambda(5);
+      if (out.observable < 6) return Status::kOk;
+      xi = -A.ldlt().solve(b);
+    }
     // Rotation omega / L about c, then translation.
     const Vec3f omega = Vec3f(float(xi(0)), float(xi(1)), float(xi(2))) / L;
     const Vec3f v(float(xi(3)), float(xi(4)), float(xi(5)));

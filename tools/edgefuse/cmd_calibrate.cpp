@@ -11,6 +11,7 @@
 
 #include "args.hpp"
 #include "board_defaults.hpp"
+#include "calib_store_io.hpp"
 #include "commands.hpp"
 #include "core_setup.hpp"
 #include "edgefuse/fusion/align_spaces.hpp"
@@ -21,13 +22,15 @@ namespace edgefuse::cli {
 namespace {
 
 const char* kUsage =
-    "usage: edgefuse calibrate RIGSET --from A --to B [--frames N] [--guess tx,ty,tz,rx,ry,rz] [--out FILE]\n"
+    "usage: edgefuse calibrate RIGSET --from A --to B [--frames N] [--guess tx,ty,tz,rx,ry,rz] [--out FILE] [--store DIR]\n"
     "                          [--poses tracked|truth] [--mode pair|maps] [--voxel M] [--trunc M] [--volume N]\n"
     "  Fills the space with sensor A (its first N frames, default 10; tracked by ICP from its first\n"
     "  ground-truth pose, or with --poses truth at every ground-truth pose), registers B's\n"
     "  frames of the same instants to it and prints T_A_B (pose of B in A's frame) with its\n"
     "  uncertainty. --guess: the mounting to start from (metres, degrees as a rotation vector;\n"
     "  default 0). --out appends 'A B tx ty tz qx qy qz qw' (extrinsics.txt format) to FILE.\n"
+    "  --store DIR sets the pair (A, B) in the calibration store in DIR (edgefused's calib.dir: two\n"
+    "  CRC-checked slot files, atomic save; the store's other entries are kept).\n"
     "  Exit 3 when the data does not determine the mounting (the reason is printed).\n"
     "  --mode maps: each sensor maps alone into its own space (its first N frames, poses relative to\n"
     "  its first one), and the two spaces' surfaces are aligned (align_spaces); the transform between\n"
@@ -52,6 +55,18 @@ bool append_line(const std::string& path, const std::string& a, const std::strin
   std::ofstream out(path, std::ios::app);
   out << a << " " << b << " " << pose_line(T) << "\n";
   return bool(out);
+}
+
+// --store: the on-board calibration store (both modes).
+bool store_result(const Args& args, const std::string& a, const std::string& b, const Pose& T) {
+  if (!args.has("store")) return true;
+  std::string msg, err;
+  if (!store_calibrated_pair(args.get("store"), a, b, T, msg, err)) {
+    std::fprintf(stderr, "edgefuse calibrate: %s\n", err.c_str());
+    return false;
+  }
+  std::printf("%s\n", msg.c_str());
+  return true;
 }
 
 // --mode maps: two spaces carved from the board's one voxel storage, each filled by one sensor in
@@ -132,6 +147,7 @@ int calibrate_maps(const Args& args, const BoardCapacities& board, FuseSettings 
   report(set, args.positional()[0], a.seq.sensor_name, b.seq.sensor_name, r.T_a_b);
   if (args.has("out") && !append_line(args.get("out"), a.seq.sensor_name, b.seq.sensor_name, r.T_a_b))
     return fail("cannot write " + args.get("out"));
+  if (!store_result(args, a.seq.sensor_name, b.seq.sensor_name, r.T_a_b)) return 1;
   return 0;
 }
 
@@ -140,7 +156,7 @@ int calibrate_maps(const Args& args, const BoardCapacities& board, FuseSettings 
 int cmd_calibrate(int argc, char** argv) {
   Args args;
   std::string err;
-  if (!args.parse(argc, argv, {"from", "to", "frames", "guess", "out", "voxel", "trunc", "volume", "poses", "mode"}, {}, err) ||
+  if (!args.parse(argc, argv, {"from", "to", "frames", "guess", "out", "store", "voxel", "trunc", "volume", "poses", "mode"}, {}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse calibrate: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
     return 2;
@@ -246,6 +262,7 @@ int cmd_calibrate(int argc, char** argv) {
     if (!out) return fail("cannot write " + args.get("out"));
     std::printf("written to %s\n", args.get("out").c_str());
   }
+  if (!store_result(args, a.seq.sensor_name, b.seq.sensor_name, T)) return 1;
   return 0;
 }
 

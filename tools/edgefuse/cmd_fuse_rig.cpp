@@ -28,15 +28,25 @@ const char* kUsage =
     "usage: edgefuse fuse RIGSET --sensors A,B,... [--extrinsics true|calibrated|FILE] [--frames N]\n"
     "                     [--voxel M] [--trunc M] [--volume N] [--origin X,Y,Z] [--out FILE.ply|.pcd]\n"
     "                     [--mesh FILE.ply] [--threads N] [--guess tx,ty,tz,rx,ry,rz] [--no-trust]\n"
-    "                     [--no-paint] [--no-filter]\n"
+    "                     [--no-paint] [--no-filter] [--tof-bilateral] [--register-laser] [--laser-patch N]\n"
+    "                     [--laser-6dof] [--laser-min-eigen R] [--laser-offset tx,ty,tz,rx,ry,rz]\n"
+    "                     [--max-sigma M]\n"
     "  Fuses the listed sensors of a rig set into one space. Pinhole sensors are placed by\n"
     "  --extrinsics: 'true' (default) = each sensor's own groundtruth.txt; 'calibrated' = the\n"
     "  reference camera's poses (the first listed with colour, else the first pinhole) times the\n"
     "  mounting found by calibration (as `edgefuse calibrate --frames 20`, reference tracked, from\n"
     "  --guess); FILE = the same with\n"
-    "  the mounting read from an extrinsics.txt file. Line scanners use their own poses (the robot's).\n"
+    "  the mounting read from an extrinsics.txt file. Line scanners use their own poses (the robot's);\n"
+    "  --register-laser registers each patch of --laser-patch N profiles (default 300) against the space\n"
+    "  before integrating it (cameras are pushed first), as a translation (--laser-6dof: also rotation);\n"
+    "  a patch is refused unless every direction's eigenvalue is at least R (default 0.003) of the largest.\n"
+    "  --laser-offset puts a known error on every scanner pose (sensor frame; metres, degrees as a\n"
+    "  rotation vector), e.g. to measure the registration.\n"
     "  Weights follow each sensor's noise model (--no-trust: equal weights); colour from the\n"
-    "  reference camera is painted onto all geometry it saw (--no-paint: only where its own depth was).\n";
+    "  reference camera is painted onto all geometry it saw (--no-paint: only where its own depth was).\n"
+    "  ToF frames get the amplitude and jump-edge filters but no bilateral smoothing (--tof-bilateral: they do).\n"
+    "  --max-sigma M: pixels whose modelled noise exceeds M metres are not integrated (default 0: all;\n"
+    "  half the truncation is the noise the space can hold; needs the noise models, not with --no-trust).\n";
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -54,8 +64,8 @@ int cmd_fuse_rig(int argc, char** argv) {
   std::string err;
   if (!args.parse(argc, argv,
                   {"sensors", "extrinsics", "frames", "voxel", "trunc", "volume", "origin", "out", "mesh", "threads",
-                   "guess", "sigma-ref", "min-weight"},
-                  {"no-trust", "no-paint", "no-filter"}, err) ||
+                   "guess", "sigma-ref", "min-weight", "laser-patch", "laser-offset", "laser-min-eigen", "max-sigma"},
+                  {"no-trust", "no-paint", "no-filter", "register-laser", "laser-6dof", "tof-bilateral"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse fuse: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
     return 2;
@@ -76,6 +86,17 @@ int cmd_fuse_rig(int argc, char** argv) {
   if (!args.get_float("sigma-ref", 1e-6f, 1.0f, sigma_ref, err) || !args.get_int("min-weight", 0, 255, min_weight, err))
     return fail(err, 2);
   if (!use_trust) sigma_ref = 0.0f;
+  LaserPushOptions laser;
+  laser.register_patches = args.has("register-laser");
+  laser.verbose = true;
+  laser.reg.translation_only = !args.has("laser-6dof");
+  if (!args.get_float("laser-min-eigen", 1e-6f, 1.0f, laser.reg.min_eigen_ratio, err)) return fail(err, 2);
+  if (!args.get_int("laser-patch", 1, 100000, laser.patch_profiles, err)) return fail(err, 2);
+  if (args.has("laser-offset") && !parse_guess(args.get("laser-offset"), laser.offset, err)) {
+    const std::string guess = "--guess";  // parse_guess names its own option
+    if (err.compare(0, guess.size(), guess) == 0) err = "--laser-offset" + err.substr(guess.size());
+    return fail(err, 2);
+  }
 
   const std::string folder = args.positional()[0];
   io::RigSet set;
@@ -94,6 +115,21 @@ int cmd_fuse_rig(int argc, char** argv) {
   if (!core.init(board, ref >= 0 ? cams[std::size_t(ref)].seq.intr : init_intr, err)) return fail(err);
   ImageView<uint16_t> filter_scratch;
   if (!bind_rig_sensors(rs, core, board, filter_scratch, err)) return fail(err);
+  // ToF frames are not bilateral-smoothed before fusion (--tof-bilateral: they are): with the ToF's
+  // noise (6.7 mm median) its range sigma mixes the floor with the tops of the objects on it, which
+  // lifted the fused floor by 1.85 mm on bin_rig_a; the TSDF's own average denoises in 3-D without
+  // crossing edges (BENCHMARKS "Multi-sensor fusion, round 3").
+  for (PinholeSlot& c : cams)
+    if (c.tof && !args.has("tof-bilateral")) c.filters.bilateral_enabled = false;
+  // Noise gate (off by default): a pixel noisier than M is not integrated. M = trunc/2 is the
+  // noise the truncated space can hold (+-2 sigma inside +-trunc; beyond, the clipping biases the
+  // average and the noise leaves zero crossings in the band) - but on bin_rig_a at 2 mm voxels it
+  // drops every ToF pixel, so by default every sensor's data is fused (where only the ToF sees,
+  // its accuracy is what there is) and the gate is the user's choice (BENCHMARKS round 3).
+  float max_sigma = 0.0f;
+  if (!args.get_float("max-sigma", 0.0f, 1.0f, max_sigma, err)) return fail(err, 2);
+  if (use_trust)
+    for (PinholeSlot& c : cams) c.sigma_max_m = max_sigma;
 
   // Volume placement.
   if (!settings.origin_given && !place_rig_volume(rs, settings, err)) return fail(err);
@@ -150,7 +186,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   pool.start(settings.threads);
   const auto t_start = std::chrono::steady_clock::now();
   if (!push_rig_frames(rs, core, pool, mount, mounted, std::size_t(frames_max), filter, true, sigma_ref,
-                       filter_scratch, err, true))
+                       filter_scratch, err, true, laser))
     return fail(err);
   if (paint && ref >= 0 && cams[std::size_t(ref)].seq.colour_registered && core.volume.has_colour()) {
     PinholeSlot& cam = cams[std::size_t(ref)];

@@ -13,6 +13,7 @@
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/sensor/noise_model.hpp"
 #include "edgefuse/tracking/pyramid.hpp"
+#include "laser_push.hpp"
 #include "worker_pool.hpp"
 
 namespace edgefuse::cli {
@@ -39,6 +40,11 @@ struct PinholeSlot {
   //! trust map (sigma_ref_m > 0) into `frame`.
   bool stage(std::size_t i, bool filter, bool with_colour, float sigma_ref_m, ImageView<uint16_t> filter_scratch,
              DepthFrame& frame, std::string& err);
+  //! Noise gate of the trust map (build_trust_map's sigma_max_m; 0: none): pixels noisier than this
+  //! are dropped from the staged depth (no surface, no free space).
+  float sigma_max_m = 0.0f;
+  std::size_t staged_pixels = 0;  //!< pixels with depth staged with a trust map (after the filters)
+  std::size_t gated_pixels = 0;   //!< of those, dropped by the noise gate
 };
 
 //! Index of the frame of `seq` whose stamp is nearest to stamp_s (within 0.02 s), or -1.
@@ -119,9 +125,11 @@ bool place_rig_volume(RigSensors& rs, FuseSettings& settings, std::string& err);
 //! \param frames_max frames per camera  \param filter pre-filter the depth  \param colour_ref integrate the
 //! reference camera's colour  \param sigma_ref_m trust reference noise (0: equal weights)
 //! \param filter_scratch spare image  \param err error text  \param verbose one line per sensor
+//! \param laser line scanners: patch registration, pose offset (laser_push.hpp; default: recorded poses)
 bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const std::vector<Pose>& mount,
                      const std::vector<char>& mounted, std::size_t frames_max, bool filter, bool colour_ref,
-                     float sigma_ref_m, ImageView<uint16_t> filter_scratch, std::string& err, bool verbose);
+                     float sigma_ref_m, ImageView<uint16_t> filter_scratch, std::string& err, bool verbose,
+                     const LaserPushOptions& laser = LaserPushOptions());
 
 //! Confidence of a fused surface point: the largest weight of the 8 voxels around it (weight units:
 //! 1/8 sample x trust), i.e. how much data supports the surface there.

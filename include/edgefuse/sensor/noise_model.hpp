@@ -60,12 +60,14 @@ struct NoiseModel {
     }
     return a_m;
   }
-  //! Trust in (0, 1] relative to sigma_ref (full trust at or below it).
+  //! Trust in (0, cap] relative to sigma_ref (full trust at or below it).
   //! \param sigma_ref_m noise that earns full weight  \param z_m z-depth  \param amplitude raw (ToF)
-  float trust(float sigma_ref_m, float z_m, float amplitude = 0.0f) const {
+  //! \param cap largest trust returned (1: a pinhole trust map in 1/255; a line scanner may exceed 1,
+  //!        see kProfileTrustMax in integrate_profile.hpp)
+  float trust(float sigma_ref_m, float z_m, float amplitude = 0.0f, float cap = 1.0f) const {
     const float r = sigma_ref_m / sigma_m(z_m, amplitude);
     const float t = r * r;
-    return t < 1.0f ? t : 1.0f;
+    return t < cap ? t : cap;
   }
 };
 
@@ -76,7 +78,10 @@ struct NoiseModel {
 //! \param depth_scale raw / depth_scale = metres
 //! \param amplitude ToF amplitude image (same size) or empty
 //! \param trust output, same size as depth
+//! \param sigma_max_m noise gate (0: none): a pixel noisier than this gets trust 0 (no sample).
+//!        A truncated SDF cannot hold a measurement whose noise is comparable to its truncation: the
+//!        clipping at +-trunc biases its average and its noise leaves zero crossings in the band.
 Status build_trust_map(const NoiseModel& model, float sigma_ref_m, ImageView<const uint16_t> depth, float depth_scale,
-                       ImageView<const uint16_t> amplitude, ImageView<uint8_t> trust);
+                       ImageView<const uint16_t> amplitude, ImageView<uint8_t> trust, float sigma_max_m = 0.0f);
 
 }  // namespace edgefuse

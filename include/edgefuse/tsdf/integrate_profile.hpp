@@ -26,6 +26,12 @@
 
 namespace edgefuse {
 
+//! Largest trust of a profile sample: 255 weight units (the weight's storage) / 8 per full sample.
+//! A laser profile scanner (20 um) is ~50x finer than sigma_ref = half a 2 mm voxel: its inverse-
+//! variance weight (2500) is far beyond what a uint8 weight holds, so it gets the most there is:
+//! one sample then carries ~3/4 of a voxel that 20 camera frames filled (~80 units).
+inline constexpr float kProfileTrustMax = 255.0f / 8.0f;
+
 struct ProfilePushStats {
   int voxels_updated = 0;  //!< voxels written by this profile
   int bricks_touched = 0;  //!< bricks holding them
@@ -38,7 +44,9 @@ struct ProfilePushStats {
 //! \param ranges_m model.beams ranges in metres along each beam, 0 = no return
 //! \param T_world_sensor pose of the scanner for this profile
 //! \param plane_band_m half-thickness of the slab around the scan plane that is updated (0: half a voxel)
-//! \param trust sensor trust factor in (0, 1] (noise_model.hpp)
+//! \param trust sensor trust factor in (0, kProfileTrustMax] (noise_model.hpp): above 1 for a scanner
+//!        finer than the reference noise, so that where it measured it dominates the cameras' average
+//!        (a full-trust sample weighs 8 units, this one up to 255)
 //! \param stats optional counts
 template <class Real>
 Status integrate_profile(TsdfVolume& volume, const LineScannerModel& model, const LineScannerTables<Real>& tables,

@@ -28,13 +28,16 @@ struct ProfileRegistrationParams {
   float min_eigen_ratio = 1e-4f;  //!< a direction below this share of the largest eigenvalue is unconstrained
   int min_points = 200;           //!< fewer usable points refuse the patch
   int point_step = 2;             //!< use every n-th beam (>= 1)
+  bool translation_only = false;  //!< solve for a translation only (the robot's orientation is trusted):
+                                  //!< a narrow sweep pins rotations poorly; encoder and hand-eye offsets
+                                  //!< are mostly translations. Three directions must be constrained.
 };
 
 struct ProfileRegistrationResult {
   Pose T_correction;     //!< world-frame correction: corrected T_world_sensor = T_correction * T_world_sensor
   bool accepted = false; //!< six directions constrained and enough points
   int points = 0;        //!< points used in the last step
-  int observable = 0;    //!< directions the patch constrains
+  int observable = 0;    //!< directions the patch constrains (of 6, or of 3 with translation_only)
   float rms_m = 0;       //!< RMS of D at the points after the last step
 };
 
