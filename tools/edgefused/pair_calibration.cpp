@@ -117,7 +117,9 @@ bool FusionPipeline::calibrate_pair(const char* from, const char* to, runtime::P
       last_used_us = used_stamp_us;
       waiting_since_us = now_us;  // counted from the end of the last estimate (slow under qemu)
     }
-    if (!mapping_ || !camera_running_ || now_us - waiting_since_us > kCalibFrameWaitUs) break;
+    if (!mapping_ || !camera_running_ || ref.counters.device_state() != hal::DeviceState::kStreaming ||
+        now_us - waiting_since_us > kCalibFrameWaitUs)
+      break;  // no next frame coming (a recording at its end, a stalled camera): average what there is
     clock.sleep_us(2000);
     step(clock.now_us());
   }
