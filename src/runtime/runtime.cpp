@@ -155,7 +155,7 @@ CmdResult Runtime::calib_fuse(const char* from, const char* to, ConsoleWriter& o
   out.line("fit: rms %.2f mm, inliers %.2f, %d correspondences; %.2f mm / %.3f deg from the guess (%s)",
            double(r.rms_mm), double(r.inlier_ratio), r.correspondences, double(r.moved_mm), double(r.moved_deg),
            r.guess_source);
-  out.line("mean of %d frames; one frame scatters by rot %.4f %.4f %.4f deg, trans %.3f %.3f %.3f mm", r.frames,
+  out.line("frames averaged: %d; one frame scatters by rot %.4f %.4f %.4f deg, trans %.3f %.3f %.3f mm", r.frames,
            double(r.spread_rot_deg[0]), double(r.spread_rot_deg[1]), double(r.spread_rot_deg[2]),
            double(r.spread_trans_mm[0]), double(r.spread_trans_mm[1]), double(r.spread_trans_mm[2]));
   pipeline_.calibration_changed(calib_);
