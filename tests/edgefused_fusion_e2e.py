@@ -124,15 +124,19 @@ check(command(con, "scan start").endswith("OK\r\n"), "console: scan start")
 # runtime localises by itself (result 0). Then `localize` on the console gives result 1.
 frames, status = 0, ""
 t0 = time.monotonic()
-while time.monotonic() < t0 + 120 and "end of recording" not in status:
+drops = -1
+# The camera thread reports the end of the recording as soon as it has published the last frame;
+# the main loop integrates that frame a moment later (on a loaded machine, after the status
+# reply): wait until every frame is accounted for, integrated or dropped.
+while time.monotonic() < t0 + 120 and ("end of recording" not in status or frames + drops < 20):
     time.sleep(0.3)
     status = command(con, "status")
     m = re.search(r"frames (\d+)", status)
     frames = int(m.group(1)) if m else frames
-# Newest-frame policy: a frame is lost only when the main loop stalls for a whole frame period
-# (200 ms at the set's 5 fps); then it is counted as a drop.
-m = re.search(r"drops (\d+)", status)
-drops = int(m.group(1)) if m else -1
+    # Newest-frame policy: a frame is lost only when the main loop stalls for a whole frame period
+    # (200 ms at the set's 5 fps); then it is counted as a drop.
+    m = re.search(r"drops (\d+)", status)
+    drops = int(m.group(1)) if m else -1
 check("end of recording" in status and frames + drops == 20 and frames >= 18,
       "mapping: %d frames integrated (%d dropped), then end of recording" % (frames, drops))
 # Every camera streams on its own acquisition thread and shows its counters, the tof too.
