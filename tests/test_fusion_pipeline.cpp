@@ -192,8 +192,14 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   }
   CHECK_TRUE_TEXT(ok, why);
   // Started at the true mounting: the fit stays within a few mm / tenths of a degree of it.
-  CHECK_TRUE(r.moved_mm < 5.0f);
-  CHECK_TRUE(r.moved_deg < 1.0f);
+  char fit[200];
+  std::snprintf(fit, sizeof(fit), "moved %.2f mm %.3f deg; 1 sigma trans %.2f %.2f %.2f mm rot %.3f %.3f %.3f deg",
+                double(r.moved_mm), double(r.moved_deg), double(r.sigma_trans_mm[0]), double(r.sigma_trans_mm[1]),
+                double(r.sigma_trans_mm[2]), double(r.sigma_rot_deg[0]), double(r.sigma_rot_deg[1]),
+                double(r.sigma_rot_deg[2]));
+  std::printf("%s\n", fit);
+  CHECK_TRUE_TEXT(r.moved_mm < 5.0f, fit);
+  CHECK_TRUE_TEXT(r.moved_deg < 1.0f, fit);
   CHECK_FALSE(p->calibrate_pair("tof", "xtion", r, &why));
   CHECK_FALSE(p->calibrate_pair("xtion", "laser", r, &why));  // streams, but is no camera
   STRCMP_EQUAL("'laser' is a line scanner: only depth cameras are calibrated as a pair", why);
