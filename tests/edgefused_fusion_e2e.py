@@ -278,6 +278,12 @@ else:
 # neighbour radius. Until session 3 the can's stand-in touched the cylinder and dug 16 mm into the
 # floor, and which frames entered the map (each camera renders on its own thread; frames are
 # dropped under load) decided whether the two came out as one segment: a flaky check.
+# Object 5, the upright bracket, is not required here either (as in the replay checks): from 0.7 m
+# above, the xtion sees of it the 5 x 30 mm top edge of its vertical 80 mm plate, the plate's faces
+# almost edge-on, and its flange lying 5 mm high, 1 mm above the bin removal's 4 mm floor band.
+# Its segment hovers around the 150-point minimum, so whether it is reported depends on which
+# frames the map holds (measured: found 4-6 mm off in 6 of 7 loaded runs, dropped in one).
+SIM_UPRIGHT_BRACKET = 5
 truth = {}
 for line in open(os.path.join(RIG, "objects.txt")):
     f = line.split()
@@ -313,6 +319,9 @@ if "ready" in info:
     check(listen.returncode == 0 and len(segs) > 0, "sim: %d segments received" % len(segs))
     for oid, (x, y) in sorted(truth.items()):
         dist = min((((sx - x) ** 2 + (sy - y) ** 2) ** 0.5 for sx, sy in segs), default=1.0)
+        if oid == SIM_UPRIGHT_BRACKET:
+            print("info sim: object %d (upright bracket, not required) nearest segment %.1f mm" % (oid, dist * 1e3))
+            continue
         check(dist <= 0.030, "sim: object %d has a segment %.1f mm away horizontally" % (oid, dist * 1e3))
     # scan stop / start joins and restarts every acquisition thread: memory stays flat.
     vm = []
