@@ -62,7 +62,13 @@ Status Localizer::remove_bin(const LocalizeParams& params) {
   // --- floor: the plane with the most inliers whose normals agree
   Plane best;
   std::size_t best_count = 0;
-  for (int it = 0; it < 200; ++it) {
+  // 200 planes are scored, drawn until that many triples pass the normal check (at most 20000
+  // draws: a rejected triple costs three lookups, a scored plane a pass over the subset). Counting
+  // 200 draws instead, a floor holding a fifth of the surface (a fused xtion + tof + laser map of
+  // bin_rig_a: 19 %) gave a floor triple in only 1.4 draws on average: none at all in a quarter of
+  // the maps (edgefused's live map of the three sensors: "floor not found", walls matched).
+  int scored = 0;
+  for (int draw = 0; draw < 20000 && scored < 200; ++draw) {
     const ScenePoint& a = pts[rng.next(uint32_t(n))];
     const ScenePoint& b = pts[rng.next(uint32_t(n))];
     const ScenePoint& c = pts[rng.next(uint32_t(n))];
@@ -71,6 +77,7 @@ Status Localizer::remove_bin(const LocalizeParams& params) {
     if (!(len > 1e-9f)) continue;
     nn /= len;
     if (std::fabs(nn.dot(a.n)) < 0.9f || std::fabs(nn.dot(b.n)) < 0.9f || std::fabs(nn.dot(c.n)) < 0.9f) continue;
+    ++scored;
     Plane pl{nn, -nn.dot(a.p)};
     std::size_t cnt = 0;
     for (std::size_t i = 0; i < n; i += stride)
