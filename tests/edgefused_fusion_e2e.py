@@ -124,22 +124,11 @@ check(command(con, "scan start").endswith("OK\r\n"), "console: scan start")
 # runtime localises by itself (result 0). Then `localize` on the console gives result 1.
 frames, status = 0, ""
 t0 = time.monotonic()
-# The camera's thread reports the end of the recording as soon as it has published the last
-# frame; the main loop integrates that frame on its next tick, so the counts are read once they
-# account for all 20 frames (or after 5 s more: then the check below fails with the numbers).
-ended_at = None
-drops = 0
-while time.monotonic() < t0 + 120:
+while time.monotonic() < t0 + 120 and "end of recording" not in status:
     time.sleep(0.3)
     status = command(con, "status")
     m = re.search(r"frames (\d+)", status)
     frames = int(m.group(1)) if m else frames
-    m = re.search(r"drops (\d+)", status)
-    drops = int(m.group(1)) if m else drops
-    if "end of recording" in status:
-        ended_at = ended_at or time.monotonic()
-        if frames + drops >= 20 or time.monotonic() > ended_at + 5:
-            break
 # Newest-frame policy: a frame is lost only when the main loop stalls for a whole frame period
 # (200 ms at the set's 5 fps); then it is counted as a drop.
 m = re.search(r"drops (\d+)", status)

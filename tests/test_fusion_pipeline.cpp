@@ -4,8 +4,6 @@
 // the runtime sees (empty map refused, tracking state, still detection off while the rig moves).
 #include <time.h>
 
-#include <algorithm>
-#include <cstring>
 #include <memory>
 #include <string>
 
@@ -186,36 +184,16 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   CHECK_EQUAL(0L, edgefuse_test::alloc_count());
   CHECK_TRUE(p->camera_stream(1).integrated >= 2);
   // The tof's newest frame against the map (the sim rig sways slowly: within the pairing window).
-  // One fit per frame scatters: the sim tof (160 x 120, sigma_z up to 2 cm at this range, flying
-  // pixels) against a bin whose floor leaves the in-plane translation to the objects' edges gives
-  // fits 0.5 .. 9 mm from the mounting (22 runs: rms 4.6 mm, mostly along the xtion's y; its
-  // covariance sigma, a lower bound, says 1.0-1.7 mm). The frames are paired with the reference
-  // pose of their own instant (checked: < 0.5 mm apart), so this is the fit's noise, not timing.
-  // The well-posed check: the mean of five fits on five frames within 5 mm (its scatter ~2 mm per
-  // axis), each fit within 15 mm and the median rotation within 1 degree.
   runtime::PairCalibrationReport r;
-  const Vec3f guess_t = p->camera_stream(1).T_ref_cam.t;
-  Vec3f sum = Vec3f::Zero();
-  float degs[5] = {};
-  int fits = 0;
-  char fit[300] = "";
-  for (int attempt = 0; attempt < 60 && fits < 5; ++attempt) {
-    step_for(*p, 70);  // a new tof frame (30 fps) for each fit
-    if (!p->calibrate_pair("xtion", "tof", r, &why)) continue;
-    const Vec3f t(r.T_from_to.tq[0], r.T_from_to.tq[1], r.T_from_to.tq[2]);
-    std::snprintf(fit + std::strlen(fit), sizeof(fit) - std::strlen(fit), "%.1f mm %.2f deg; ", double(r.moved_mm),
-                  double(r.moved_deg));
-    CHECK_TRUE_TEXT(r.moved_mm < 15.0f, fit);
-    sum += t;
-    degs[fits++] = r.moved_deg;
+  bool ok = false;
+  for (int attempt = 0; attempt < 20 && !ok; ++attempt) {
+    step_for(*p, 30);
+    ok = p->calibrate_pair("xtion", "tof", r, &why);
   }
-  CHECK_EQUAL_TEXT(5, fits, why);
-  std::sort(degs, degs + 5);
-  const float mean_mm = 1e3f * (sum / 5.0f - guess_t).norm();
-  std::snprintf(fit + std::strlen(fit), sizeof(fit) - std::strlen(fit), "mean %.2f mm", double(mean_mm));
-  std::printf("calib fuse fits: %s\n", fit);
-  CHECK_TRUE_TEXT(mean_mm < 5.0f, fit);
-  CHECK_TRUE_TEXT(degs[2] < 1.0f, fit);
+  CHECK_TRUE_TEXT(ok, why);
+  // Started at the true mounting: the fit stays within a few mm / tenths of a degree of it.
+  CHECK_TRUE(r.moved_mm < 5.0f);
+  CHECK_TRUE(r.moved_deg < 1.0f);
   CHECK_FALSE(p->calibrate_pair("tof", "xtion", r, &why));
   CHECK_FALSE(p->calibrate_pair("xtion", "laser", r, &why));  // streams, but is no camera
   STRCMP_EQUAL("'laser' is a line scanner: only depth cameras are calibrated as a pair", why);
