@@ -411,3 +411,50 @@ TEST(HalAcquisition, FramePoolsLiveInTheBoardMemoryMap) {
   worker.stop();
   CHECK_EQUAL(5, checked);
 }
+
+// edgefused4: the line scanner's profile pool is a memory-map region too.
+TEST(HalAcquisition, ProfilePoolLivesInTheBoardMemoryMap) {
+  CoreBuffers buf;
+  CHECK(carve_memory(build_board(), static_arena(), static_arena_bytes(), buf) == Status::kOk);
+  CHECK_EQUAL(build_board().image_width_max, buf.profile_pool.beams_max);
+  CHECK_EQUAL(kProfilePoolSlots, buf.profile_pool.slots);
+  static ProfilePoolViews views;
+  ProfileChannel ch;
+  AcquisitionCounters cnt;
+  CHECK_FALSE(bind_profile_pool(buf.profile_pool, buf.profile_pool.beams_max + 1, views, ch, cnt));  // too wide
+  CHECK_FALSE(bind_profile_pool(ProfilePoolBuffers(), 640, views, ch, cnt));                          // no region
+  CHECK(bind_profile_pool(buf.profile_pool, buf.profile_pool.beams_max, views, ch, cnt));
+  if (buf.profile_pool.beams_max < 640) {  // a small board (am335x: 320 px): the sim laser's 640 beams do not fit
+    CHECK_FALSE(bind_profile_pool(buf.profile_pool, 640, views, ch, cnt));
+    return;
+  }
+  CHECK(bind_profile_pool(buf.profile_pool, 640, views, ch, cnt));
+  MonotonicClock& clock = monotonic_clock();
+  SimTriggerLine line;
+  SimTriggerOutput out(line, clock);
+  SimTriggerInput in(line, clock);
+  SimLinearAxis axis(clock.now_us(), 0.0, 0.05);
+  SimLineScanner scanner(sim_laser_config(), scene, in, axis);
+  ScannerWorker worker(scanner, ch, cnt);
+  ScannerWorkerConfig wc;
+  wc.profile_timeout_ms = 50;
+  CHECK(worker.start(wc));
+  out.start();
+  const uintptr_t lo = reinterpret_cast<uintptr_t>(buf.profile_pool.ranges_m);
+  const uintptr_t hi = lo + make_memory_map(build_board()).regions[int(Region::kAcqProfiles)].bytes;
+  int profiles = 0;
+  bool inside = true;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (profiles < 10 && std::chrono::steady_clock::now() < end) {
+    out.pulse(20);
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ch.drain([&](const LineProfile& p) {
+      const uintptr_t a = reinterpret_cast<uintptr_t>(p.ranges_m);
+      inside = inside && a >= lo && a + std::size_t(p.beams) * sizeof(float) <= hi && p.beams == 640;
+      ++profiles;
+    });
+  }
+  worker.stop();
+  CHECK(profiles >= 10);
+  CHECK(inside);
+}

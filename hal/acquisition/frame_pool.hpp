@@ -2,8 +2,11 @@
 // "acquisition pools: depth / colour / amplitude" of include/edgefuse/memory/memmap.hpp), so the
 // pools are sized by the board, listed by `edgefuse memmap` and counted by the compile-time RAM
 // budget check. FrameChannelStorage (a .bss array sized by a template) remains for tests and
-// tools that need no arena.
+// tools that need no arena. The line scanner's profile pool is a region too ("acquisition pools:
+// line profiles", bind_profile_pool).
 #pragma once
+
+#include <cstddef>
 
 #include "edgefuse/memory/memmap.hpp"
 #include "hal/acquisition/frame_channel.hpp"
@@ -34,6 +37,31 @@ inline bool bind_frame_pool(const FramePoolBuffers& pools, int pool, FramePoolVi
     views.frames[i] = f;
   }
   return channel.init(views.frames, kFramePoolSlots, &counters);
+}
+
+//! The LineProfile views of the line scanner's profile pool (edgefused4).
+struct ProfilePoolViews {
+  LineProfile profiles[kProfilePoolSlots];
+};
+static_assert(kProfilePoolSlots >= 3 && kProfilePoolSlots <= ProfileChannel::kMaxSlots,
+              "the profile pool must fit the channel's rings");
+
+//! Points `views` at the memory map's profile pool and initialises `channel` with them (start-up,
+//! and again to empty the pool while its thread is stopped).
+//! \param pool the carved memory map's profile pool  \param beams the scanner's beams per profile
+//! \param views caller storage for the profile views  \param channel the channel to initialise
+//! \param counters its counters  \return false when the pool is missing or its profiles are too short
+inline bool bind_profile_pool(const ProfilePoolBuffers& pool, int beams, ProfilePoolViews& views,
+                              ProfileChannel& channel, AcquisitionCounters& counters) {
+  if (pool.ranges_m == nullptr || pool.slots != kProfilePoolSlots || beams <= 0 || beams > pool.beams_max)
+    return false;
+  for (int i = 0; i < kProfilePoolSlots; ++i) {
+    LineProfile p;
+    p.ranges_m = pool.ranges_m + std::size_t(i) * std::size_t(pool.beams_max);
+    p.capacity_beams = pool.beams_max;
+    views.profiles[i] = p;
+  }
+  return channel.init(views.profiles, kProfilePoolSlots, &counters);
 }
 
 }  // namespace edgefuse::hal

@@ -102,6 +102,7 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
   owned_->sim_monitor.reset(new SimDeviceMonitor(clock));
   monitor_ = owned_->sim_monitor.get();
   bool any_usb = false;
+  uint64_t rig_epoch_us = 0;  // the sim rig's motion starts when its devices are built
   for (const io::BoardCamera& c : board.cameras) {
     std::unique_ptr<DepthCamera> cam;
     const SimDepthCamera* sim_cam = nullptr;
@@ -121,6 +122,9 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
         }
         if (c.fps > 0) sc.fps = c.fps;
         SimDepthCamera* sc_cam = new SimDepthCamera(sc, scene_, clock);
+        // One rig: its cameras' poses follow the same motion clock (each starts on its own thread).
+        if (rig_epoch_us == 0) rig_epoch_us = clock.now_us();
+        sc_cam->set_rig_epoch_us(rig_epoch_us);
         cam.reset(sc_cam);
         sim_cam = sc_cam;
         break;

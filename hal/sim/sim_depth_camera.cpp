@@ -91,7 +91,11 @@ HalStatus SimDepthCamera::start(int mode_index) {
 void SimDepthCamera::stop() { running_ = false; }
 
 Pose SimDepthCamera::pose_of(uint32_t sequence) const {
-  const double t_s = double(sequence) / double(config_.fps > 0 ? config_.fps : 30);
+  // Frame `sequence` is stamped start_us_ + sequence periods; with a rig epoch its pose is the
+  // rig's at that clock time (start_us_ includes start_offset_us), the same for every camera.
+  const double since_epoch_s =
+      rig_epoch_us_ != 0 && start_us_ != 0 ? (double(start_us_) - double(rig_epoch_us_)) * 1e-6 : 0.0;
+  const double t_s = since_epoch_s + double(sequence) / double(config_.fps > 0 ? config_.fps : 30);
   return sim_rig_pose(t_s, config_.rig_radius_m, config_.rig_period_s) * config_.T_rig_cam;
 }
 

@@ -62,6 +62,12 @@ class SimDepthCamera final : public DepthCamera {
   //! True camera-to-world pose of frame `sequence` (for tests and ground truth).
   //! \param sequence frame number since start
   Pose pose_of(uint32_t sequence) const;
+  //! Runs the rig's motion on the clock from `epoch_us` on, shared by every camera of the rig, so
+  //! that frames of different cameras with the same stamp see the rig at the same pose. Without it
+  //! (0, the default) the motion starts at this camera's own start(): cameras started at different
+  //! moments (each on its own acquisition thread) then see the rig displaced by the difference.
+  //! \param epoch_us clock time of the rig's motion's t = 0 (set before start())
+  void set_rig_epoch_us(uint64_t epoch_us) { rig_epoch_us_ = epoch_us; }
   //! Renders the frame at pose T_world_cam into `frame` (no pacing, no stamp).
   //! \param T_world_cam camera pose  \param frame storage (fits the mode)
   void render(const Pose& T_world_cam, DepthFrame& frame);
@@ -78,6 +84,7 @@ class SimDepthCamera final : public DepthCamera {
   DepthMode mode_;
   bool running_ = false;
   uint64_t start_us_ = 0;
+  uint64_t rig_epoch_us_ = 0;  // 0: the rig's motion starts at start()
   uint32_t sequence_ = 0;
   uint64_t last_stamp_us_ = 0;
   uint16_t row_prev_[kMaxWidth];

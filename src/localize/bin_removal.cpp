@@ -62,7 +62,15 @@ Status Localizer::remove_bin(const LocalizeParams& params) {
   // --- floor: the plane with the most inliers whose normals agree
   Plane best;
   std::size_t best_count = 0;
-  for (int it = 0; it < 200; ++it) {
+  // 200 draws of three points; a triple is scored only when the normals agree with its plane.
+  // Where no dominant plane came out of those, drawing goes on (up to 20000 draws or 400 scored
+  // planes): with the floor a fifth of the surface (a fused xtion + tof + laser map of bin_rig_a:
+  // 19 %) a floor triple comes up 1.4 times per 200 draws on average, and in about a quarter of
+  // the maps never (edgefused's live map of the three sensors: "floor not found", walls matched).
+  // Maps whose floor the first 200 draws find are treated exactly as before.
+  int scored = 0;
+  for (int draw = 0; draw < 20000 && scored < 400; ++draw) {
+    if (draw >= 200 && best_count * stride >= n / 10) break;
     const ScenePoint& a = pts[rng.next(uint32_t(n))];
     const ScenePoint& b = pts[rng.next(uint32_t(n))];
     const ScenePoint& c = pts[rng.next(uint32_t(n))];
@@ -71,6 +79,7 @@ Status Localizer::remove_bin(const LocalizeParams& params) {
     if (!(len > 1e-9f)) continue;
     nn /= len;
     if (std::fabs(nn.dot(a.n)) < 0.9f || std::fabs(nn.dot(b.n)) < 0.9f || std::fabs(nn.dot(c.n)) < 0.9f) continue;
+    ++scored;
     Plane pl{nn, -nn.dot(a.p)};
     std::size_t cnt = 0;
     for (std::size_t i = 0; i < n; i += stride)

@@ -70,6 +70,10 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   out.frame_pools.pixels_per_slot = std::size_t(c.image_width_max) * std::size_t(c.image_height_max);
   out.frame_pools.slots = kFramePoolSlots;
   out.frame_pools.pools = c.sensors_max;
+  // line-scanner profile pool (edgefused4)
+  out.profile_pool.ranges_m = static_cast<float*>(at(Region::kAcqProfiles));
+  out.profile_pool.beams_max = c.image_width_max;
+  out.profile_pool.slots = kProfilePoolSlots;
   out.pyramid_points_per_sensor = pyramid_pixels(c.image_width_max, c.image_height_max);
   out.icp_row_bytes_per_sensor = std::size_t(c.image_height_max) * kIcpRowBytes;
   out.pixels_per_sensor = std::size_t(c.image_width_max) * std::size_t(c.image_height_max);

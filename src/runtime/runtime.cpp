@@ -46,9 +46,9 @@ void Runtime::send(const link::Message& m) {
 }
 
 void Runtime::send_heartbeat(uint64_t now_us) {
-  msg_ = link::make_heartbeat(heartbeat_seq_++, now_us);
+  beat_ = link::make_heartbeat(heartbeat_seq_++, now_us);
   const PipelineStats st = pipeline_.stats();
-  link::Heartbeat& h = msg_.body.heartbeat;
+  link::Heartbeat& h = beat_.body.heartbeat;
   h.state = wire_state(state_);
   h.tracking = st.tracking;
   h.fps = st.fps;
@@ -56,7 +56,7 @@ void Runtime::send_heartbeat(uint64_t now_us) {
   h.drops = st.drops;
   h.results = result_seq_;
   h.uptime_s = uint32_t((now_us - start_us_) / 1000000u);
-  send(msg_);
+  send(beat_);
 }
 
 bool Runtime::begin_localize(uint64_t now_us, const char** why) {

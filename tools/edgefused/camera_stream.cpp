@@ -8,17 +8,6 @@
 
 namespace edgefuse::wire {
 
-namespace {
-
-constexpr int kPixels = kBuildBoard.image_width_max * kBuildBoard.image_height_max;
-// Frames per camera: the device fills one, the pipeline holds one, two more absorb a processing
-// hiccup (newest-frame policy: more would only hold older frames).
-constexpr int kSlots = 4;
-// The pools live in .bss (static memory, no heap): one per sensor slot of the board.
-hal::FrameChannelStorage<kPixels, kSlots> g_pools[kBuildBoard.sensors_max];
-
-}  // namespace
-
 bool CameraStream::bind(CoreBuffers& b, const BoardCapacities& board, bool bilateral, std::string& err) {
   const std::string where = "camera '" + name + "'";
   if (index < 0 || index >= board.sensors_max || index >= kBuildBoard.sensors_max) {
@@ -57,8 +46,12 @@ bool CameraStream::bind(CoreBuffers& b, const BoardCapacities& board, bool bilat
     return false;
   }
   noise = tof ? NoiseModel::time_of_flight() : NoiseModel::structured_light();
-  if (!g_pools[index].bind(channel, counters)) {
-    err = where + ": frame pool";
+  // The frame pool: this sensor slot's pool in the memory map (kFramePoolSlots frames of the
+  // board's largest image; regions "acquisition pools: ..."), bound once here.
+  pools_ = &b.frame_pools;
+  if (!hal::bind_frame_pool(*pools_, index, pool_views_, channel, counters)) {
+    err = where + ": no frame pool for sensor slot " + std::to_string(index) + " in board " + board.name +
+          "'s memory map";
     return false;
   }
   return true;
@@ -68,7 +61,7 @@ bool CameraStream::restart_pool() {
   held = nullptr;
   held_new = false;
   paired_stamp_us = 0;
-  return g_pools[index].bind(channel, counters);
+  return pools_ != nullptr && hal::bind_frame_pool(*pools_, index, pool_views_, channel, counters);
 }
 
 bool CameraStream::take_newest() {

@@ -1,6 +1,7 @@
 // One depth camera of edgefused as the pipeline sees it: its acquisition thread (hal/acquisition
 // CameraWorker: stall -> reopen with back-off, unplug -> wait for the DeviceMonitor, sanity checks
-// with counted reasons), the fixed pool of frames it fills (static storage, SPSC rings), the
+// with counted reasons), the fixed pool of frames it fills (its sensor slot's pool in the board's
+// memory map: regions "acquisition pools: ..."; SPSC rings), the
 // newest frame the pipeline holds, and the camera's slot of the board's per-sensor buffers
 // (filtered depth, trust map, ray norms, raycast maps, tile scratch, pyramid, ICP rows) with its
 // pre-filters and noise model.
@@ -22,6 +23,7 @@
 #include "hal/acquisition/acquisition_counters.hpp"
 #include "hal/acquisition/camera_worker.hpp"
 #include "hal/acquisition/frame_channel.hpp"
+#include "hal/acquisition/frame_pool.hpp"
 
 namespace edgefuse::wire {
 
@@ -79,6 +81,8 @@ struct CameraStream {
 
  private:
   mutable char status_[480] = {};
+  const FramePoolBuffers* pools_ = nullptr;  // the carved memory map's frame pools
+  hal::FramePoolViews pool_views_;           // this camera's frames in them
 };
 
 }  // namespace edgefuse::wire

@@ -6,12 +6,6 @@
 
 namespace edgefuse::wire {
 
-namespace {
-// Profiles held between two main-loop ticks: 15 (the rings' most) covers 150 ms at 100 Hz.
-constexpr int kBeamsMax = kBuildBoard.image_width_max;
-hal::ProfileChannelStorage<kBeamsMax, hal::ProfileChannel::kMaxSlots> g_profiles;
-}  // namespace
-
 bool ScannerStream::bind(hal::LineScanner& scanner, CoreBuffers& b, const BoardCapacities& board, int slot_index,
                          std::string& err) {
   const std::string where = "line_scanner '" + name + "'";
@@ -24,9 +18,9 @@ bool ScannerStream::bind(hal::LineScanner& scanner, CoreBuffers& b, const BoardC
     err = where + ": board " + board.name + " has no sensor slot left for it";
     return false;
   }
-  if (info.beams > kBeamsMax) {
-    err = where + ": " + std::to_string(info.beams) + " beams exceed the " + std::to_string(kBeamsMax) +
-          " of the profile pool";
+  if (info.beams > b.profile_pool.beams_max) {
+    err = where + ": " + std::to_string(info.beams) + " beams exceed the " + std::to_string(b.profile_pool.beams_max) +
+          " of board " + board.name + "'s profile pool (its widest image)";
     return false;
   }
   slot = slot_index;
@@ -36,15 +30,20 @@ bool ScannerStream::bind(hal::LineScanner& scanner, CoreBuffers& b, const BoardC
     err = where + ": bad line scanner parameters";
     return false;
   }
-  if (!g_profiles.bind(channel, counters)) {
-    err = where + ": profile pool";
+  // The profile pool: the memory map's region "acquisition pools: line profiles", bound once here.
+  pool_ = &b.profile_pool;
+  beams_ = info.beams;
+  if (!hal::bind_profile_pool(*pool_, beams_, pool_views_, channel, counters)) {
+    err = where + ": no profile pool in board " + board.name + "'s memory map";
     return false;
   }
   worker.reset(new hal::ScannerWorker(scanner, channel, counters));
   return true;
 }
 
-bool ScannerStream::restart_pool() { return g_profiles.bind(channel, counters); }
+bool ScannerStream::restart_pool() {
+  return pool_ != nullptr && hal::bind_profile_pool(*pool_, beams_, pool_views_, channel, counters);
+}
 
 const char* ScannerStream::status_text() const {
   auto g = [](const std::atomic<uint32_t>& a) { return unsigned(a.load(std::memory_order_relaxed)); };

@@ -1,6 +1,7 @@
 // The board's line scanner in edgefused: its acquisition thread (hal/acquisition ScannerWorker:
 // one profile per trigger edge, checks, reopen with back-off), the fixed pool of profiles it fills
-// (static storage, SPSC rings; processing drains every profile: each is one slice of the scan),
+// (the memory map's region "acquisition pools: line profiles"; SPSC rings; processing drains every
+// profile: each is one slice of the scan),
 // and what integration needs: the scanner model, its tan(theta) table in the board's per-sensor
 // buffers, and the axis that carries it (a profile's pose is T_world_axis0 moved along the axis by
 // the profile's axis position).
@@ -14,6 +15,7 @@
 #include "edgefuse/sensor/line_scanner.hpp"
 #include "hal/acquisition/acquisition_counters.hpp"
 #include "hal/acquisition/frame_channel.hpp"
+#include "hal/acquisition/frame_pool.hpp"
 #include "hal/acquisition/scanner_worker.hpp"
 
 namespace edgefuse::wire {
@@ -53,6 +55,9 @@ struct ScannerStream {
 
  private:
   mutable char status_[400] = {};
+  const ProfilePoolBuffers* pool_ = nullptr;  // the carved memory map's profile pool
+  hal::ProfilePoolViews pool_views_;          // its profiles
+  int beams_ = 0;                             // the scanner's beams per profile
 };
 
 }  // namespace edgefuse::wire

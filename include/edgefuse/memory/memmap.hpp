@@ -66,6 +66,8 @@ enum class Region : int {
   kAcqDepth,        //!< pooled depth (uint16)
   kAcqColour,       //!< pooled registered colour
   kAcqAmplitude,    //!< pooled ToF amplitude (uint16)
+  // line-scanner profile pool (edgefused4): kProfilePoolSlots profiles of the line scanner's thread
+  kAcqProfiles,     //!< pooled profile ranges (float)
   kCount
 };
 
@@ -83,6 +85,11 @@ inline constexpr std::size_t kRegionAlign = 64;  //!< every region starts on a c
 //! Frames in each sensor's acquisition pool: the device fills one, a stereo pairer holds up to
 //! three of a stream, processing one more, and one is in flight (hal/acquisition).
 inline constexpr int kFramePoolSlots = 6;
+// line-scanner profile pool (edgefused4): the profiles that wait between two main-loop ticks of
+// edgefused (15, the most the channel's 16-entry rings hold: 150 ms at 100 Hz), each of up to the
+// board's widest image in beams (a profile's ray table takes a sensor slot of image_width_max x
+// image_height_max entries, so no scanner the board can place has more beams).
+inline constexpr int kProfilePoolSlots = 15;
 
 constexpr uint64_t align_up(uint64_t v, uint64_t a) { return (v + a - 1) / a * a; }
 
@@ -145,6 +152,9 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kAcqDepth, "acquisition pools: depth", pooled * sizeof(uint16_t));
   set(Region::kAcqColour, "acquisition pools: colour", pooled * sizeof(Rgb8));
   set(Region::kAcqAmplitude, "acquisition pools: amplitude", pooled * sizeof(uint16_t));
+  // line-scanner profile pool (edgefused4)
+  set(Region::kAcqProfiles, "acquisition pools: line profiles",
+      uint64_t(c.image_width_max) * uint64_t(kProfilePoolSlots) * sizeof(float));
   uint64_t total = 0;
   for (const MemoryRegion& r : m.regions) total += align_up(r.bytes, kRegionAlign);
   m.total_bytes = total;
@@ -160,6 +170,14 @@ struct FramePoolBuffers {
   std::size_t pixels_per_slot = 0;
   int slots = 0;
   int pools = 0;
+};
+
+//! The line scanner's profile pool (edgefused4): `slots` profiles of up to `beams_max` ranges each,
+//! slot after slot.
+struct ProfilePoolBuffers {
+  float* ranges_m = nullptr;
+  int beams_max = 0;
+  int slots = 0;
 };
 
 //! Views of every region of one board's arena, carved once at start-up.
@@ -183,6 +201,7 @@ struct CoreBuffers {
   uint8_t* trust_maps = nullptr;      //!< sensors_max trust maps of image_*_max (multi-sensor fusion)
   LocalizeBuffers localize;           //!< localisation tables (issue 5)
   FramePoolBuffers frame_pools;       //!< acquisition frame pools (HAL, issue 6)
+  ProfilePoolBuffers profile_pool;    //!< the line scanner's profile pool (edgefused4)
   std::size_t pixels_per_sensor = 0;  //!< stride between the sensors' images in each region
   std::size_t tiles_per_sensor = 0;   //!< stride between the sensors' tile arrays
   std::size_t pyramid_points_per_sensor = 0;  //!< points of one sensor's pyramid map (all levels)

@@ -95,7 +95,11 @@ class Runtime : public ConsoleService {
   uint64_t next_heartbeat_us_ = 0;
   uint32_t result_seq_ = 0;
   uint32_t heartbeat_seq_ = 0;
-  link::Message msg_;           // one message buffer (a result holds up to 32 objects)
+  link::Message msg_;           // the result being collected and reported (up to 32 objects)
+  // Heartbeats have their own buffer: sharing msg_ let a heartbeat that fell due in the tick that
+  // collected a result overwrite it (the body is a union) before kReport sent it, so a result
+  // went out with no objects although the pipeline had found some.
+  link::Message beat_;
   link::FrameWriter writer_;
   char text_[160] = {};         // reply messages that outlive a call
 };
