@@ -460,7 +460,9 @@ void FusionPipeline::process_profile(const hal::LineProfile& p) {
     return;
   }
   // The laser's noise (20 um, constant) against the trust reference, as edgefuse fuse --sensors.
-  const float trust = NoiseModel::constant(20e-6f).trust(0.5f * fuse_.voxel_m, 0.0f);
+  // Not capped at one camera sample (kProfileTrustMax), as in edgefuse fuse --sensors: the 20 um
+  // scanner must be able to outweigh an average of many coarser camera samples on its strip.
+  const float trust = NoiseModel::constant(20e-6f).trust(0.5f * fuse_.voxel_m, 0.0f, 0.0f, kProfileTrustMax);
   if (integrate_profile<real_t>(core_.volume, scanner_.model, scanner_.tables, p.ranges_m, T, 0.0f, trust) !=
       Status::kOk) {
     ++pipeline_drops_;
