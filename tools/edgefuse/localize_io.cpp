@@ -297,18 +297,26 @@ bool read_localize_config(const std::string& path, std::vector<std::string>& mod
   std::string spec;
   if (!text("models", spec)) return false;
   if (spec.empty()) return true;
+  if (!model_files(spec, models, err)) {
+    err = path + ": localize.models: " + err;
+    return false;
+  }
+  return true;
+}
+
+bool model_files(const std::string& spec, std::vector<std::string>& out, std::string& err) {
   struct stat st;
   if (stat(spec.c_str(), &st) != 0) {
-    err = path + ": localize.models: " + spec + " does not exist";
+    err = spec + " does not exist";
     return false;
   }
   if (!S_ISDIR(st.st_mode)) {
-    models.push_back(spec);
+    out.push_back(spec);
     return true;
   }
   DIR* d = opendir(spec.c_str());
   if (d == nullptr) {
-    err = path + ": localize.models: cannot read the folder " + spec;
+    err = "cannot read the folder " + spec;
     return false;
   }
   std::vector<std::string> names;
@@ -319,10 +327,10 @@ bool read_localize_config(const std::string& path, std::vector<std::string>& mod
   closedir(d);
   std::sort(names.begin(), names.end());
   if (names.empty()) {
-    err = path + ": localize.models: no .ply model in the folder " + spec;
+    err = "no .ply model in the folder " + spec;
     return false;
   }
-  models.insert(models.end(), names.begin(), names.end());
+  out.insert(out.end(), names.begin(), names.end());
   return true;
 }
 

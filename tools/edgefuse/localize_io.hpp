@@ -40,6 +40,11 @@ bool read_bin_toml(const std::string& path, BinGeometry& bin, std::string& err);
 bool read_localize_config(const std::string& path, std::vector<std::string>& models, std::string& bin_file,
                           std::string& err);
 
+//! The model files of `spec`: a PLY file, or every *.ply of a folder (sorted: a stable id order).
+//! \param spec a file or folder  \param out files appended
+//! \return false with `err` naming `spec` (missing, unreadable folder, folder without models)
+bool model_files(const std::string& spec, std::vector<std::string>& out, std::string& err);
+
 //! `id tx ty tz qx qy qz qw score model` per result.
 bool write_pose_list(const std::string& path, const Localizer& loc, std::size_t count, std::string& err);
 

@@ -48,32 +48,6 @@ bool is_dir(const std::string& p) {
   return stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
 }
 
-// The model files of `spec`: a PLY file, or every *.ply of a folder (sorted: a stable id order).
-bool model_files(const std::string& spec, std::vector<std::string>& out, std::string& err) {
-  if (!is_dir(spec)) {
-    out.push_back(spec);
-    return true;
-  }
-  DIR* d = opendir(spec.c_str());
-  if (d == nullptr) {
-    err = spec + ": cannot read the folder";
-    return false;
-  }
-  std::vector<std::string> names;
-  while (dirent* e = readdir(d)) {
-    const std::string n = e->d_name;
-    if (n.size() > 4 && n.compare(n.size() - 4, 4, ".ply") == 0) names.push_back(spec + "/" + n);
-  }
-  closedir(d);
-  std::sort(names.begin(), names.end());
-  if (names.empty()) {
-    err = spec + ": no .ply model in the folder";
-    return false;
-  }
-  out.insert(out.end(), names.begin(), names.end());
-  return true;
-}
-
 Pose to_pose(const runtime::CalibPose& p) {
   return Pose::from_tq(p.tq[0], p.tq[1], p.tq[2], p.tq[3], p.tq[4], p.tq[5], p.tq[6]);
 }
@@ -220,7 +194,7 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
   loc_params_.max_per_model = board->objects_max;
   std::vector<std::string> files;
   if (!config.models.empty()) {
-    if (!model_files(config.models, files, err)) {
+    if (!cli::model_files(config.models, files, err)) {
       err = "localize.models: " + err;
       return false;
     }
