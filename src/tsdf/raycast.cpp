@@ -542,8 +542,7 @@ class RayMarcher {
     return true;
   }
 
-  // TsdfSampler::colour (trilinear over the corners seen in colour, the same arithmetic) with the
-  // corners addressed like the march's cells.
+  // TsdfSampler::colour (blend_corner_colours) with the corners addressed like the march's cells.
   Rgba8 colour(const Real g[3]) const {
     Rgba8 out;
     const int cell[3] = {floor_int(g[0]), floor_int(g[1]), floor_int(g[2])};
@@ -553,22 +552,7 @@ class RayMarcher {
                              a.base + a.dz, a.base + a.dz + a.dx, a.base + a.dz + a.dy, a.base + a.dz + a.dy + a.dx};
     const float f[3] = {to_float(g[0] - real_from_int<Real>(cell[0])), to_float(g[1] - real_from_int<Real>(cell[1])),
                         to_float(g[2] - real_from_int<Real>(cell[2]))};
-    float sum_w = 0, r = 0, gr = 0, b = 0;
-    for (int i = 0; i < 8; ++i) {
-      if (colour_weight_[idx[i]] == 0) continue;
-      const float w = ((i & 1) ? f[0] : 1 - f[0]) * ((i & 2) ? f[1] : 1 - f[1]) * ((i & 4) ? f[2] : 1 - f[2]);
-      const Rgb8 c = colour_[idx[i]];
-      sum_w += w;
-      r += w * c.r;
-      gr += w * c.g;
-      b += w * c.b;
-    }
-    if (!(sum_w > 1e-6f)) return out;
-    out.r = uint8_t(r / sum_w + 0.5f);
-    out.g = uint8_t(gr / sum_w + 0.5f);
-    out.b = uint8_t(b / sum_w + 0.5f);
-    out.a = 255;
-    return out;
+    return blend_corner_colours(colour_, colour_weight_, idx, f);
   }
 
  private:

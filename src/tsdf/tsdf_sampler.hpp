@@ -10,6 +10,32 @@
 
 namespace edgefuse {
 
+//! Trilinear colour over the 8 corners of a cell, from the corners seen in colour only (a corner
+//! never coloured does not pull the result towards black); alpha 0 when none was seen.
+//! \param colour, colour_weight the volume's colour arrays  \param idx the corners' linear indices
+//! (corner i: +x for bit 0, +y for bit 1, +z for bit 2)  \param f the position inside the cell
+template <class Index>
+inline Rgba8 blend_corner_colours(const Rgb8* colour, const uint8_t* colour_weight, const Index idx[8],
+                                  const float f[3]) {
+  Rgba8 out;
+  float sum_w = 0, r = 0, g = 0, b = 0;
+  for (int i = 0; i < 8; ++i) {
+    if (colour_weight[idx[i]] == 0) continue;
+    const float w = ((i & 1) ? f[0] : 1 - f[0]) * ((i & 2) ? f[1] : 1 - f[1]) * ((i & 4) ? f[2] : 1 - f[2]);
+    const Rgb8 c = colour[idx[i]];
+    sum_w += w;
+    r += w * c.r;
+    g += w * c.g;
+    b += w * c.b;
+  }
+  if (!(sum_w > 1e-6f)) return out;
+  out.r = uint8_t(r / sum_w + 0.5f);
+  out.g = uint8_t(g / sum_w + 0.5f);
+  out.b = uint8_t(b / sum_w + 0.5f);
+  out.a = 255;
+  return out;
+}
+
 template <class Real>
 class TsdfSampler {
  public:
@@ -76,22 +102,7 @@ class TsdfSampler {
     corners(cell, idx);
     const float f[3] = {to_float(gx - real_from_int<Real>(cell[0])), to_float(gy - real_from_int<Real>(cell[1])),
                         to_float(gz - real_from_int<Real>(cell[2]))};
-    float sum_w = 0, r = 0, g = 0, b = 0;
-    for (int i = 0; i < 8; ++i) {
-      if (colour_weight_[idx[i]] == 0) continue;
-      const float w = ((i & 1) ? f[0] : 1 - f[0]) * ((i & 2) ? f[1] : 1 - f[1]) * ((i & 4) ? f[2] : 1 - f[2]);
-      const Rgb8 c = colour_[idx[i]];
-      sum_w += w;
-      r += w * c.r;
-      g += w * c.g;
-      b += w * c.b;
-    }
-    if (!(sum_w > 1e-6f)) return out;
-    out.r = uint8_t(r / sum_w + 0.5f);
-    out.g = uint8_t(g / sum_w + 0.5f);
-    out.b = uint8_t(b / sum_w + 0.5f);
-    out.a = 255;
-    return out;
+    return blend_corner_colours(colour_, colour_weight_, idx, f);
   }
 
  private:
