@@ -125,11 +125,7 @@ int calibrate_maps(const Args& args, const BoardCapacities& board, FuseSettings 
               a.seq.sensor_name.c_str(), b.seq.sensor_name.c_str(), frames, dim, settings.voxel_m);
   // View: A's first pose in A's map, with A's intrinsics; the other space's maps use slot 1's buffers.
   const PinholeIntrinsics& vi = a.seq.intr;
-  const std::size_t off = core.buffers.pixels_per_sensor;
-  RaycastMaps om;
-  om.depth_m = ImageView<float>(core.buffers.raycast_depth + off, vi.width, vi.height);
-  om.vertex = ImageView<Vec3f>(core.buffers.raycast_vertex + off, vi.width, vi.height);
-  om.normal = ImageView<Vec3f>(core.buffers.raycast_normal + off, vi.width, vi.height);
+  const RaycastMaps om = core.buffers.raycast_maps(1, vi.width, vi.height, false);
   FramePyramid<real_t> pyramid;
   if (core.buffers.pyramid<real_t>(1, vi, pyramid) != Status::kOk) return fail("pyramid does not fit");
   PairCalibrationResult r;

@@ -24,10 +24,7 @@ bool CoreSetup::init(const BoardCapacities& board, const PinholeIntrinsics& intr
     return false;
   }
   const int w = intr.width, h = intr.height;
-  maps.depth_m = ImageView<float>(buffers.raycast_depth, w, h);
-  maps.vertex = ImageView<Vec3f>(buffers.raycast_vertex, w, h);
-  maps.normal = ImageView<Vec3f>(buffers.raycast_normal, w, h);
-  maps.colour = board.colour ? ImageView<Rgba8>(buffers.raycast_colour, w, h) : ImageView<Rgba8>();
+  maps = buffers.raycast_maps(0, w, h, board.colour);
   scratch = buffers.scratch(0);
   static_assert(sizeof(real_t) == sizeof(float), "the ray-norm region holds 4-byte scalars");
   ray_norms = ImageView<real_t>(reinterpret_cast<real_t*>(buffers.ray_norms), w, h);

@@ -34,10 +34,7 @@ bool PinholeSlot::bind(CoreBuffers& b, const BoardCapacities& board, int slot_in
     return false;
   }
   scratch = b.scratch(slot);
-  maps.depth_m = ImageView<float>(b.raycast_depth + off, w, h);
-  maps.vertex = ImageView<Vec3f>(b.raycast_vertex + off, w, h);
-  maps.normal = ImageView<Vec3f>(b.raycast_normal + off, w, h);
-  maps.colour = board.colour ? ImageView<Rgba8>(b.raycast_colour + off, w, h) : ImageView<Rgba8>();
+  maps = b.raycast_maps(slot, w, h, board.colour);
   depth = ImageView<uint16_t>(b.depth_frames + off, w, h);
   colour = ImageView<Rgb8>(b.colour_frames + off, w, h);
   tof = !seq.frames.empty() && !seq.frames[0].amplitude_path.empty();

@@ -27,10 +27,7 @@ bool CameraStream::bind(CoreBuffers& b, const BoardCapacities& board, bool bilat
     return false;
   }
   scratch = b.scratch(index);
-  maps.depth_m = ImageView<float>(b.raycast_depth + off, w, h);
-  maps.vertex = ImageView<Vec3f>(b.raycast_vertex + off, w, h);
-  maps.normal = ImageView<Vec3f>(b.raycast_normal + off, w, h);
-  maps.colour = board.colour ? ImageView<Rgba8>(b.raycast_colour + off, w, h) : ImageView<Rgba8>();
+  maps = b.raycast_maps(index, w, h, board.colour);
   filtered = ImageView<uint16_t>(b.depth_frames + off, w, h);
   trust = b.trust_maps != nullptr ? ImageView<uint8_t>(b.trust_maps + off, w, h) : ImageView<uint8_t>();
   if (b.pyramid<real_t>(index, intr, pyramid) != Status::kOk) {

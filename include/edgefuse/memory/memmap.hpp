@@ -14,6 +14,7 @@
 #include "edgefuse/tracking/icp.hpp"
 #include "edgefuse/tsdf/extract.hpp"
 #include "edgefuse/tsdf/frame_scratch.hpp"
+#include "edgefuse/tsdf/raycast.hpp"
 #include "edgefuse/tsdf/volume.hpp"
 
 namespace edgefuse {
@@ -219,6 +220,18 @@ struct CoreBuffers {
   IcpWorkspace<Real> icp_workspace(int sensor) const {
     return IcpWorkspace<Real>::bind(static_cast<uint8_t*>(icp_rows) + std::size_t(sensor) * icp_row_bytes_per_sensor,
                                     icp_row_bytes_per_sensor);
+  }
+
+  //! The raycast maps of sensor i, width x height (<= the board's largest image).
+  //! \param colour bind the colour map too (boards that fuse colour; else it stays empty)
+  RaycastMaps raycast_maps(int sensor, int width, int height, bool colour) const {
+    const std::size_t off = std::size_t(sensor) * pixels_per_sensor;
+    RaycastMaps m;
+    m.depth_m = ImageView<float>(raycast_depth + off, width, height);
+    m.vertex = ImageView<Vec3f>(raycast_vertex + off, width, height);
+    m.normal = ImageView<Vec3f>(raycast_normal + off, width, height);
+    if (colour && raycast_colour != nullptr) m.colour = ImageView<Rgba8>(raycast_colour + off, width, height);
+    return m;
   }
 
   //! The tile scratch of sensor i (0 <= i < sensors_max).
