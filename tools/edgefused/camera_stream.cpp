@@ -27,7 +27,9 @@ bool CameraStream::bind(CoreBuffers& b, const BoardCapacities& board, bool bilat
     return false;
   }
   scratch = b.scratch(index);
-  maps = b.raycast_maps(index, w, h, board.colour);
+  // Tracking ICP and calib fuse read depth, vertex and normal only: no colour map, so the raycast
+  // skips its colour lookups (as edgefuse track).
+  maps = b.raycast_maps(index, w, h, false);
   filtered = ImageView<uint16_t>(b.depth_frames + off, w, h);
   trust = b.trust_maps != nullptr ? ImageView<uint8_t>(b.trust_maps + off, w, h) : ImageView<uint8_t>();
   if (b.pyramid<real_t>(index, intr, pyramid) != Status::kOk) {
