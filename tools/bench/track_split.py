@@ -17,6 +17,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from cpu_load import cpu_busy_s, child_cpu_s  # beside this script
 
 REPO = Path(__file__).resolve().parents[2]
 KV = re.compile(r"([A-Za-z_]+)=([-0-9.]+)")
@@ -26,20 +27,6 @@ DATASETS = {
     "xtion": ("bin_rig_a xtion", "320x240", "bin_rig_a", ["--sensor", "xtion"]),
     "tum": ("TUM fr1/xyz", "640x480", "tum_fr1_xyz_37", ["--voxel", "0.01"]),
 }
-
-
-def cpu_busy_s():
-    """Seconds of busy CPU time summed over all cores since boot (/proc/stat)."""
-    with open("/proc/stat") as f:
-        v = [int(x) for x in f.readline().split()[1:]]
-    idle = v[3] + (v[4] if len(v) > 4 else 0)
-    return (sum(v[:8]) - idle) / os.sysconf("SC_CLK_TCK")
-
-
-def child_cpu_s():
-    import resource
-    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return ru.ru_utime + ru.ru_stime
 
 
 def run(binary, ds, threads, frames, data, out):

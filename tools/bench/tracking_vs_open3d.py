@@ -49,6 +49,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from cpu_load import cpu_busy_s, child_cpu_s  # beside this script
 
 REPO = Path(__file__).resolve().parents[2]
 SHARED = Path(os.environ.get("EDGEFUSE_SHARED_DATA", "/work/shared/data"))
@@ -465,20 +466,6 @@ def parse_kv(line):
         except ValueError:
             out[k] = v
     return out
-
-
-def cpu_busy_s():
-    """Seconds of busy CPU time summed over all cores since boot (/proc/stat)."""
-    with open("/proc/stat") as f:
-        v = [int(x) for x in f.readline().split()[1:]]
-    idle = v[3] + (v[4] if len(v) > 4 else 0)
-    return (sum(v[:8]) - idle) / os.sysconf("SC_CLK_TCK")
-
-
-def child_cpu_s():
-    import resource
-    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return ru.ru_utime + ru.ru_stime
 
 
 def wait_quiet(max_wait_s, busy_cores=0.3):

@@ -34,6 +34,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from cpu_load import cpu_busy_s  # beside this script
 
 VOXEL_M = 0.01
 TRUNC_M = 0.04
@@ -212,14 +213,6 @@ def find_edgefuse(given):
             return c
     die("no edgefuse binary found; build it (cmake -S . -B build/bench -G Ninja -DCMAKE_BUILD_TYPE=Release && "
         "cmake --build build/bench --target edgefuse) or pass --edgefuse PATH")
-
-
-def cpu_busy_s():
-    """Seconds of busy CPU time summed over all cores since boot (/proc/stat)."""
-    with open("/proc/stat") as f:
-        v = [int(x) for x in f.readline().split()[1:]]
-    idle = v[3] + (v[4] if len(v) > 4 else 0)
-    return (sum(v[:8]) - idle) / os.sysconf("SC_CLK_TCK")
 
 
 class Contention:
