@@ -49,6 +49,19 @@ bool depth_at(const IntegrationJob<Real>& job, Real pu, Real pv, int iu, int iv,
   return true;
 }
 
+// Folds the valid raw depths of row[u0..u1] into [lo, hi]; an invalid pixel (0) clears `all`.
+inline void fold_depth_row(const uint16_t* row, int u0, int u1, uint32_t& lo, uint32_t& hi, bool& all) {
+  for (int u = u0; u <= u1; ++u) {
+    const uint32_t x = row[u];
+    if (x == 0) {
+      all = false;
+      continue;
+    }
+    lo = x < lo ? x : lo;
+    hi = x > hi ? x : hi;
+  }
+}
+
 // Min / max valid raw depth per 8x8 tile.
 void build_depth_tiles(const ImageView<const uint16_t>& depth, DepthTile* tiles) {
   const int tx = FrameScratch::tiles_x(depth.width), ty = FrameScratch::tiles_y(depth.height);
@@ -58,18 +71,8 @@ void build_depth_tiles(const ImageView<const uint16_t>& depth, DepthTile* tiles)
       bool all = true;
       const int v_end = (j + 1) * FrameScratch::kTile < depth.height ? (j + 1) * FrameScratch::kTile : depth.height;
       const int u_end = (i + 1) * FrameScratch::kTile < depth.width ? (i + 1) * FrameScratch::kTile : depth.width;
-      for (int v = j * FrameScratch::kTile; v < v_end; ++v) {
-        const uint16_t* row = depth.row(v);
-        for (int u = i * FrameScratch::kTile; u < u_end; ++u) {
-          const uint32_t x = row[u];
-          if (x == 0) {
-            all = false;
-            continue;
-          }
-          lo = x < lo ? x : lo;
-          hi = x > hi ? x : hi;
-        }
-      }
+      for (int v = j * FrameScratch::kTile; v < v_end; ++v)
+        fold_depth_row(depth.row(v), i * FrameScratch::kTile, u_end - 1, lo, hi, all);
       DepthTile& t = tiles[std::size_t(j) * tx + i];
       t.min_raw = hi == 0 ? 0 : uint16_t(lo);
       t.max_raw = uint16_t(hi);
@@ -153,16 +156,7 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const Real c0[3], const
     // it much more tightly than the 8x8 tiles around it, which often hold an invalid pixel or a
     // depth edge and would leave the block to the voxel loop.
     for (int v = b0; v <= b1; ++v) {
-      const uint16_t* row = job.frame.depth.row(v);
-      for (int u = a0; u <= a1; ++u) {
-        const uint32_t x = row[u];
-        if (x == 0) {
-          all = false;
-          continue;
-        }
-        lo = x < lo ? x : lo;
-        hi = x > hi ? x : hi;
-      }
+      fold_depth_row(job.frame.depth.row(v), a0, a1, lo, hi, all);
       // A brick's footprint: once the rows read so far rule out both the skip and free space
       // (below; hi only grows and lo only falls), so does the whole footprint, and the brick goes
       // to its blocks. Not for the blocks themselves: most of them are decided by a full scan,
