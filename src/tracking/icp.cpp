@@ -25,9 +25,11 @@ void rows_thunk(void* job, int begin, int end) {
   icp_rows(*static_cast<const IcpPass<Real>*>(job), begin, end);
 }
 
-// Row sums -> float system, rows added in order (float rows in double; Fixed rows exactly in int64).
-void reduce(const IcpSums<float>* rows, int n, IcpSystem& s) {
-  double ata[21] = {}, atb[6] = {}, rr = 0;
+// Row sums -> float system, rows added in order: float rows in double, Fixed rows exactly in int64
+// (Q32.32, hence the scale). Acc is the accumulator type, Sum the row type's element.
+template <class Acc, class Sum>
+void reduce_rows(const IcpSums<Sum>* rows, int n, float scale, IcpSystem& s) {
+  Acc ata[21] = {}, atb[6] = {}, rr = 0;
   long count = 0, valid = 0, candidates = 0;
   for (int v = 0; v < n; ++v) {
     for (int k = 0; k < 21; ++k) ata[k] += rows[v].ata[k];
@@ -39,34 +41,18 @@ void reduce(const IcpSums<float>* rows, int n, IcpSystem& s) {
   }
   int k = 0;
   for (int i = 0; i < 6; ++i)
-    for (int j = i; j < 6; ++j) s.A(i, j) = s.A(j, i) = float(ata[k++]);
-  for (int i = 0; i < 6; ++i) s.b(i) = float(atb[i]);
-  s.rr = float(rr);
+    for (int j = i; j < 6; ++j) s.A(i, j) = s.A(j, i) = float(ata[k++]) * scale;
+  for (int i = 0; i < 6; ++i) s.b(i) = float(atb[i]) * scale;
+  s.rr = float(rr) * scale;
   s.count = int(count);
   s.valid = int(valid);
   s.candidates = int(candidates);
 }
 
+void reduce(const IcpSums<float>* rows, int n, IcpSystem& s) { reduce_rows<double>(rows, n, 1.0f, s); }
+
 void reduce(const IcpSums<int64_t>* rows, int n, IcpSystem& s) {
-  int64_t ata[21] = {}, atb[6] = {}, rr = 0;
-  long count = 0, valid = 0, candidates = 0;
-  for (int v = 0; v < n; ++v) {
-    for (int k = 0; k < 21; ++k) ata[k] += rows[v].ata[k];
-    for (int k = 0; k < 6; ++k) atb[k] += rows[v].atb[k];
-    rr += rows[v].rr;
-    count += rows[v].count;
-    valid += rows[v].valid;
-    candidates += rows[v].candidates;
-  }
-  const float q32 = 1.0f / 4294967296.0f;  // Q32.32 -> value
-  int k = 0;
-  for (int i = 0; i < 6; ++i)
-    for (int j = i; j < 6; ++j) s.A(i, j) = s.A(j, i) = float(ata[k++]) * q32;
-  for (int i = 0; i < 6; ++i) s.b(i) = float(atb[i]) * q32;
-  s.rr = float(rr) * q32;
-  s.count = int(count);
-  s.valid = int(valid);
-  s.candidates = int(candidates);
+  reduce_rows<int64_t>(rows, n, 1.0f / 4294967296.0f, s);  // Q32.32 -> value
 }
 
 template <class Real>

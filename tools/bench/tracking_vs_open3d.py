@@ -49,6 +49,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+import o3d_import  # beside this script
 from cpu_load import cpu_busy_s, child_cpu_s  # beside this script
 
 REPO = Path(__file__).resolve().parents[2]
@@ -75,13 +76,7 @@ def die(msg, code=2):
 
 
 def import_np_o3d():
-    try:
-        import numpy as np
-        import open3d as o3d
-    except ImportError as e:
-        die(f"cannot import open3d/numpy with {sys.executable} ({e}). On Debian: apt-get install "
-            "python3-open3d, and run this script with /usr/bin/python3 (not a pyenv/venv python).")
-    return np, o3d
+    return o3d_import.import_np_o3d('tracking_vs_open3d')
 
 
 # ----------------------------------------------------------------------------------------------

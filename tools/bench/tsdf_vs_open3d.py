@@ -34,6 +34,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+import o3d_import  # beside this script
 from cpu_load import cpu_busy_s  # beside this script
 
 VOXEL_M = 0.01
@@ -56,13 +57,7 @@ def die(msg, code=2):
 
 
 def import_open3d():
-    try:
-        import numpy as np  # noqa: F401
-        import open3d as o3d
-    except ImportError as e:
-        die(f"cannot import open3d/numpy with {sys.executable} ({e}). On Debian: apt-get install "
-            "python3-open3d, and run this script with /usr/bin/python3 (not a pyenv/venv python).")
-    return o3d
+    return o3d_import.import_np_o3d('tsdf_vs_open3d')[1]
 
 
 # ----------------------------------------------------------------------------------------------
