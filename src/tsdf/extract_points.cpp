@@ -1,9 +1,10 @@
 // Zero crossings of the TSDF along the grid edges (the point cloud of extract.hpp).
 //
 // A crossing needs both voxels observed (with at least min_weight, when given) and strictly inside
-// the truncation band, so both of their bricks carry kBrickSurface: only those bricks are visited, and an edge leaving a brick is
-// followed only when the neighbouring brick has the flag too. Order: bricks in index order,
-// voxels z-y-x inside a brick, then the +x, +y, +z edge of each voxel -- deterministic.
+// the truncation band, so both of their bricks carry kBrickSurface: only those bricks are visited,
+// and an edge leaving a brick is followed only when the neighbouring brick has the flag too.
+// Order: bricks in index order, voxels z-y-x inside a brick, then the +x, +y, +z edge of each
+// voxel -- deterministic.
 // Sign convention (shared with marching cubes): a voxel is inside when tsdf < 0; 0 is outside.
 #include <cstddef>
 #include <cstdint>

@@ -50,8 +50,8 @@ const char* kUsage =
     "  --min-support W: a surface point needs both voxels of its zero crossing to hold at least W weight\n"
     "  units (1/8 of a full-trust sample; default 4 with the noise models: one Xtion frame or four ToF\n"
     "  samples; 0: off). --jump-sigmas K: a depth difference of more than K x the frame's median modelled\n"
-    "  noise (at least the truncation) between neighbouring pixels is a discontinuity (default 2.83; 0:\n"
-    "  the truncation, as before round 4).\n";
+    "  noise (at least the truncation, at most 1 m) between neighbouring pixels is a discontinuity (default\n"
+    "  2.83, up to 10; 0: the truncation, as before round 4).\n";
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -145,7 +145,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   // Both need the noise models (with --no-trust every sample is a full one).
   int min_support = use_trust ? kMinSupportWeight : 0;
   float jump_sigmas = use_trust ? kJumpSigmas : 0.0f;
-  if (!args.get_int("min-support", 0, 255, min_support, err) || !args.get_float("jump-sigmas", 0.0f, 100.0f, jump_sigmas, err))
+  if (!args.get_int("min-support", 0, 255, min_support, err) || !args.get_float("jump-sigmas", 0.0f, 10.0f, jump_sigmas, err))
     return fail(err, 2);
   if (jump_sigmas > 0.0f && !use_trust) return fail("--jump-sigmas needs the noise models (not with --no-trust)", 2);
   for (PinholeSlot& c : cams) c.jump_sigmas = jump_sigmas;

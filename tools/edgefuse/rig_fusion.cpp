@@ -89,7 +89,8 @@ bool PinholeSlot::stage(std::size_t i, bool filter, bool with_colour, float sigm
         depth.at(u, v) = 0;  // a gated pixel carves no free space either
       }
     if (jump_sigmas > 0.0f) {
-      frame.jump_m = jump_sigmas * median_sigma_m(noise, depth, intr.depth_scale, amp);
+      // At most 1 m (integration's bound): beyond, every edge would be smeared anyway.
+      frame.jump_m = std::min(1.0f, jump_sigmas * median_sigma_m(noise, depth, intr.depth_scale, amp));
       jump_m_sum += frame.jump_m;
       ++jump_frames;
     }
