@@ -752,3 +752,36 @@ TEST(ExtractMesh, AllCasesClosed) {
     CHECK(signed_volume(m) > 0);  // wound outwards around the inside corners
   }
 }
+
+// Fusion round 4: the support rule. A plane filled with weight 8, except a patch of columns whose
+// voxels hold 3 units (e.g. three ToF samples); with min_weight 4 the patch's crossings go and
+// every other crossing stays, identical; min_weight 0 and 1 are the plain extraction.
+TEST(ExtractPoints, MinWeightSupportRule) {
+  const float z0 = 0.0123f;
+  fill(g_volume, [&](const Vec3f& p) { return p.z() - z0; }, seen_like_integration);
+  auto in_patch = [](int x, int y) { return x >= 10 && x < 20 && y >= 30 && y < 35; };
+  for (int z = 0; z < kDim; ++z)
+    for (int y = 0; y < kDim; ++y)
+      for (int x = 0; x < kDim; ++x) {
+        const std::size_t k = g_volume.index(x, y, z);
+        if (g_weight[k] != 0) g_weight[k] = in_patch(x, y) ? 3 : 8;
+      }
+  std::size_t n_all = 0, n0 = 0, n1 = 0, n4 = 0, n8 = 0, n9 = 0;
+  CHECK(extract_points(g_volume, g_points, kMaxPoints, n_all) == Status::kOk);
+  CHECK(extract_points(g_volume, g_points2, kMaxPoints, n0, 0) == Status::kOk);
+  LONGS_EQUAL(kDim * kDim, n_all);
+  LONGS_EQUAL(n_all, n0);
+  CHECK(extract_points(g_volume, g_points2, kMaxPoints, n1, 1) == Status::kOk);
+  LONGS_EQUAL(n_all, n1);
+  CHECK(extract_points(g_volume, g_points2, kMaxPoints, n4, 4) == Status::kOk);
+  LONGS_EQUAL(kDim * kDim - 10 * 5, n4);
+  for (std::size_t i = 0; i < n4; ++i) {
+    const Vec3f g = (g_points2[i].position - g_volume.origin_m()) / kVoxel;
+    CHECK(!in_patch(int(std::floor(g.x())), int(std::floor(g.y()))));
+    CHECK(std::abs(g_points2[i].position.z() - z0) < 1e-3f * kVoxel);
+  }
+  CHECK(extract_points(g_volume, g_points2, kMaxPoints, n8, 8) == Status::kOk);
+  LONGS_EQUAL(n4, n8);
+  CHECK(extract_points(g_volume, g_points2, kMaxPoints, n9, 9) == Status::kOk);
+  LONGS_EQUAL(0, n9);
+}

@@ -1,9 +1,10 @@
 // Zero crossings of the TSDF along the grid edges (the point cloud of extract.hpp).
 //
-// A crossing needs both voxels observed and strictly inside the truncation band, so both of their
-// bricks carry kBrickSurface: only those bricks are visited, and an edge leaving a brick is
-// followed only when the neighbouring brick has the flag too. Order: bricks in index order,
-// voxels z-y-x inside a brick, then the +x, +y, +z edge of each voxel -- deterministic.
+// A crossing needs both voxels observed (with at least min_weight, when given) and strictly inside
+// the truncation band, so both of their bricks carry kBrickSurface: only those bricks are visited,
+// and an edge leaving a brick is followed only when the neighbouring brick has the flag too.
+// Order: bricks in index order, voxels z-y-x inside a brick, then the +x, +y, +z edge of each
+// voxel -- deterministic.
 // Sign convention (shared with marching cubes): a voxel is inside when tsdf < 0; 0 is outside.
 #include <cstddef>
 #include <cstdint>
@@ -13,7 +14,8 @@
 
 namespace edgefuse {
 
-Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t capacity, std::size_t& count) {
+Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t capacity, std::size_t& count,
+                      uint8_t min_weight) {
   using namespace extract_detail;
   count = 0;
   if (!volume.initialised()) return Status::kNotInitialised;
@@ -24,6 +26,7 @@ Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t c
   const std::size_t nb2 = std::size_t(nb) * std::size_t(nb);
   const int16_t* const t = g.tsdf;
   const uint8_t* const w = g.weight;
+  const uint8_t w_min = min_weight > 1 ? min_weight : 1;  // 1: observed
 
   std::size_t b = 0;
   for (int bz = 0; bz < nb; ++bz) {
@@ -39,7 +42,7 @@ Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t c
         for (int lz = 0; lz < kBrickSide; ++lz) {
           for (int ly = 0; ly < kBrickSide; ++ly) {
             for (int lx = 0; lx < kBrickSide; ++lx, ++idx) {
-              if (w[idx] == 0) continue;
+              if (w[idx] < w_min) continue;
               const int16_t t0 = t[idx];
               if (!in_band(t0)) continue;
               const bool neg0 = t0 < 0;
@@ -49,7 +52,7 @@ Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t c
                 if (last && !open[d]) continue;
                 const std::size_t j = idx + std::size_t(last ? g.cross[d] : kInBrickStep[d]);
                 const int16_t t1 = t[j];
-                if ((t1 < 0) == neg0 || w[j] == 0 || !in_band(t1)) continue;
+                if ((t1 < 0) == neg0 || w[j] < w_min || !in_band(t1)) continue;
                 if (count == capacity) return Status::kOutputTruncated;
                 const int c[3] = {bx * kBrickSide + lx, by * kBrickSide + ly, bz * kBrickSide + lz};
                 EdgeSample e;

@@ -232,7 +232,8 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
   for (int r = 0; r < 3; ++r) job.origin_m[r] = volume.origin_m()(r);
   job.trust_q8 = uint32_t(std::lround(trust * 256.0f));
   if (job.trust_q8 == 0) job.trust_q8 = 1;
-  const float jump = std::round(p.trunc_m * intr.depth_scale);
+  if (!(frame.jump_m >= 0.0f) || frame.jump_m > 1.0f) return Status::kInvalidArgument;
+  const float jump = std::round((frame.jump_m > p.trunc_m ? frame.jump_m : p.trunc_m) * intr.depth_scale);
   job.jump_raw = jump < 1.0f ? 1u : (jump > 65535.0f ? 65535u : uint32_t(jump));
   job.jump = job.depth.metres(uint16_t(job.jump_raw));
   job.frame = frame;

@@ -30,7 +30,7 @@ const char* kUsage =
     "                     [--mesh FILE.ply] [--threads N] [--guess tx,ty,tz,rx,ry,rz] [--no-trust]\n"
     "                     [--no-paint] [--no-filter] [--tof-bilateral] [--register-laser] [--laser-patch N]\n"
     "                     [--laser-6dof] [--laser-min-eigen R] [--laser-offset tx,ty,tz,rx,ry,rz]\n"
-    "                     [--max-sigma M]\n"
+    "                     [--max-sigma M] [--min-support W] [--jump-sigmas K]\n"
     "  Fuses the listed sensors of a rig set into one space. Pinhole sensors are placed by\n"
     "  --extrinsics: 'true' (default) = each sensor's own groundtruth.txt; 'calibrated' = the\n"
     "  reference camera's poses (the first listed with colour, else the first pinhole) times the\n"
@@ -46,7 +46,12 @@ const char* kUsage =
     "  reference camera is painted onto all geometry it saw (--no-paint: only where its own depth was).\n"
     "  ToF frames get the amplitude and jump-edge filters but no bilateral smoothing (--tof-bilateral: they do).\n"
     "  --max-sigma M: pixels whose modelled noise exceeds M metres are not integrated (default 0: all;\n"
-    "  half the truncation is the noise the space can hold; needs the noise models, not with --no-trust).\n";
+    "  half the truncation is the noise the space can hold; needs the noise models, not with --no-trust).\n"
+    "  --min-support W: a surface point needs both voxels of its zero crossing to hold at least W weight\n"
+    "  units (1/8 of a full-trust sample; default 4 with the noise models: one Xtion frame or four ToF\n"
+    "  samples; 0: off). --jump-sigmas K: a depth difference of more than K x the frame's median modelled\n"
+    "  noise (at least the truncation, at most 1 m) between neighbouring pixels is a discontinuity (default\n"
+    "  2.83, up to 10; 0: the truncation, as before round 4).\n";
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -64,7 +69,8 @@ int cmd_fuse_rig(int argc, char** argv) {
   std::string err;
   if (!args.parse(argc, argv,
                   {"sensors", "extrinsics", "frames", "voxel", "trunc", "volume", "origin", "out", "mesh", "threads",
-                   "guess", "sigma-ref", "min-weight", "laser-patch", "laser-offset", "laser-min-eigen", "max-sigma"},
+                   "guess", "sigma-ref", "min-weight", "laser-patch", "laser-offset", "laser-min-eigen", "max-sigma",
+                   "min-support", "jump-sigmas"},
                   {"no-trust", "no-paint", "no-filter", "register-laser", "laser-6dof", "tof-bilateral"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse fuse: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
@@ -130,6 +136,19 @@ int cmd_fuse_rig(int argc, char** argv) {
   if (!args.get_float("max-sigma", 0.0f, 1.0f, max_sigma, err)) return fail(err, 2);
   if (use_trust)
     for (PinholeSlot& c : cams) c.sigma_max_m = max_sigma;
+  // Round 4 (BENCHMARKS "Multi-sensor fusion, round 4"): the ToF's noise is of the order of the
+  // truncation. (1) With the truncation as the depth-jump limit its noise read as depth edges and
+  // only 1-4 of 20 frames reached a voxel (at slopes only the samples whose noise cancelled the
+  // slope): the jump follows the frame's noise. (2) A zero crossing made by one to three such
+  // samples is noise, not surface (70 % of the ToF-only points lay > 2 mm off the true surface,
+  // inside the walls and under the floor): extraction needs both voxels to hold half a full sample.
+  // Both need the noise models (with --no-trust every sample is a full one).
+  int min_support = use_trust ? kMinSupportWeight : 0;
+  float jump_sigmas = use_trust ? kJumpSigmas : 0.0f;
+  if (!args.get_int("min-support", 0, 255, min_support, err) || !args.get_float("jump-sigmas", 0.0f, 10.0f, jump_sigmas, err))
+    return fail(err, 2);
+  if (jump_sigmas > 0.0f && !use_trust) return fail("--jump-sigmas needs the noise models (not with --no-trust)", 2);
+  for (PinholeSlot& c : cams) c.jump_sigmas = jump_sigmas;
 
   // Volume placement.
   if (!settings.origin_given && !place_rig_volume(rs, settings, err)) return fail(err);
@@ -206,7 +225,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   const double fuse_ms = ms_since(t_start);
 
   io::PointCloud cloud;
-  const Status xs = core.extract_cloud(cloud);
+  const Status xs = core.extract_cloud(cloud, uint8_t(min_support));
   if (min_weight > 0) {
     // Confidence filter: keep a point only where some of the 8 voxels around it holds at least
     // min_weight (weight units: 1/8 sample x trust), i.e. the surface there is supported by that much data.

@@ -65,10 +65,10 @@ int CoreSetup::hit_percent(const PinholeIntrinsics& intr) const {
   return int(100 * hits / (std::size_t(intr.width) * intr.height));
 }
 
-Status CoreSetup::extract_cloud(io::PointCloud& cloud) const {
+Status CoreSetup::extract_cloud(io::PointCloud& cloud, uint8_t min_weight) const {
   const uint32_t capacity = build_board().points_max;
   std::size_t count = 0;
-  const Status s = extract_points(volume, buffers.points, capacity, count);
+  const Status s = extract_points(volume, buffers.points, capacity, count, min_weight);
   cloud = io::PointCloud();
   cloud.points.reserve(count);
   cloud.normals.reserve(count);

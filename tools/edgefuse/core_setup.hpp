@@ -40,7 +40,8 @@ struct CoreSetup {
   //! Share of pixels the last raycast hit, in percent.
   int hit_percent(const PinholeIntrinsics& intr) const;
   //! The zero-crossing cloud into the static point buffer, then into `cloud`.
-  Status extract_cloud(io::PointCloud& cloud) const;
+  //! \param cloud output  \param min_weight extract_points' support rule (0: every observed pair)
+  Status extract_cloud(io::PointCloud& cloud, uint8_t min_weight = 0) const;
 };
 
 //! Places the volume so that its centre is the median of the points the frame sees.

@@ -88,8 +88,38 @@ bool PinholeSlot::stage(std::size_t i, bool filter, bool with_colour, float sigm
         ++gated_pixels;
         depth.at(u, v) = 0;  // a gated pixel carves no free space either
       }
+    if (jump_sigmas > 0.0f) {
+      // At most 1 m (integration's bound): beyond, every edge would be smeared anyway.
+      frame.jump_m = std::min(1.0f, jump_sigmas * median_sigma_m(noise, depth, intr.depth_scale, amp));
+      jump_m_sum += frame.jump_m;
+      ++jump_frames;
+    }
   }
   return true;
+}
+
+float median_sigma_m(const NoiseModel& noise, ImageView<const uint16_t> depth, float depth_scale,
+                     ImageView<const uint16_t> amplitude) {
+  // Histogram of 0.25 mm bins up to 64 mm (the ToF model caps at 20 mm): a median without sorting.
+  constexpr int kBins = 256;
+  constexpr float kBinM = 0.00025f;
+  std::size_t hist[kBins] = {};
+  std::size_t n = 0;
+  for (int v = 0; v < depth.height; ++v)
+    for (int u = 0; u < depth.width; ++u) {
+      const uint16_t raw = depth.at(u, v);
+      if (raw == 0) continue;
+      const float a = amplitude.empty() ? 0.0f : float(amplitude.at(u, v));
+      const int b = int(noise.sigma_m(float(raw) / depth_scale, a) / kBinM);
+      ++hist[b < 0 ? 0 : (b >= kBins ? kBins - 1 : b)];
+      ++n;
+    }
+  std::size_t seen = 0;
+  for (int b = 0; b < kBins; ++b) {
+    seen += hist[b];
+    if (2 * seen >= n && n > 0) return (float(b) + 0.5f) * kBinM;
+  }
+  return 0.0f;
 }
 
 int frame_near(const io::DepthSequence& seq, double stamp_s) {
@@ -387,8 +417,13 @@ bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const st
       if (cam.sigma_max_m > 0.0f && cam.staged_pixels > 0)
         std::snprintf(gate, sizeof(gate), ", noise gate %.1f mm dropped %.1f %% of its pixels", 1e3f * cam.sigma_max_m,
                       100.0 * double(cam.gated_pixels) / double(cam.staged_pixels));
-      std::printf("%s: %zu frames pushed (%s%s%s%s)\n", cam.seq.sensor_name.c_str(), pushed,
-                  cam.tof ? "ToF" : "structured light", filter ? ", pre-filtered" : "", colour ? ", colour" : "", gate);
+      char jump[96] = "";
+      if (cam.jump_frames > 0)
+        std::snprintf(jump, sizeof(jump), ", depth jump %.1f mm", 1e3 * std::max(double(core.volume.params().trunc_m),
+                                                                                   cam.jump_m_sum / double(cam.jump_frames)));
+      std::printf("%s: %zu frames pushed (%s%s%s%s%s)\n", cam.seq.sensor_name.c_str(), pushed,
+                  cam.tof ? "ToF" : "structured light", filter ? ", pre-filtered" : "", colour ? ", colour" : "", gate,
+                  jump);
     }
   }
   for (std::size_t k = 0; k < rs.scans.size(); ++k) {

@@ -45,6 +45,12 @@ struct DepthFrame {
   //! Optional per-pixel trust in 1/255 from the sensor's noise model (sensor/noise_model.hpp):
   //! scales the weight of the samples read from that pixel (empty: full trust everywhere).
   ImageView<const uint8_t> trust = {};
+  //! Depth difference (metres) between the pixels a voxel interpolates from that counts as a
+  //! discontinuity (no update there); 0: the truncation distance. A sensor whose per-pixel noise
+  //! is of the order of the truncation (ToF) needs more, or its noise alone reads as depth edges
+  //! and most of its samples are dropped - selectively: at slopes only those whose noise happens
+  //! to cancel the slope pass (BENCHMARKS "Multi-sensor fusion, round 4").
+  float jump_m = 0.0f;
 };
 
 //! Everything integrate_bricks needs, converted once per frame to the kernel scalar.
@@ -67,7 +73,7 @@ struct IntegrationJob {
   //! Paint pass (colour_pass.hpp): only the colour of observed voxels near the depth image's
   //! surface is updated; distances, weights and free space are left alone.
   bool colour_only = false;
-  uint32_t jump_raw = 0;     //!< raw depth difference counted as a discontinuity (= trunc)
+  uint32_t jump_raw = 0;     //!< raw depth difference counted as a discontinuity (frame.jump_m, else trunc)
   Real jump;                 //!< the same in metres
   DepthFrame frame;
   ImageView<const Real> ray_norms;
