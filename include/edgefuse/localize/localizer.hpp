@@ -79,6 +79,15 @@ struct LocalizeParams {
   float segment_concave_tol = 0.05f; //!< (n_j - n_i).(p_j - p_i)/|p_j - p_i| above -tol joins (convex)
   int segment_min_points = 150;      //!< smaller segments are noise (label 0)
   int segment_colour_tol = 0;        //!< > 0: neighbours whose colours differ by more (sum of |dR|+|dG|+|dB|) do not join
+  //! Concave creases (a box on a box, a can on a tin): points with a neighbour within
+  //! segment_crease_radius_m whose normal is turned by more than segment_crease_deg in a concave
+  //! sense ((n_j - n_i).(p_j - p_i) < -segment_crease_concave |p_j - p_i|) are kept out of the region
+  //! growing and attached afterwards to the segment they continue smoothly. 0 deg: off.
+  float segment_crease_deg = 30.0f;
+  float segment_crease_radius_m = 0.008f;  //!< neighbourhood of the crease test (band half-width)
+  float segment_crease_concave = 0.3f;     //!< concavity of a crease pair (right angle: 1 .. 1.41)
+  int segment_crease_min_pairs = 4;        //!< a crease point has at least this many crease pairs ...
+  float segment_crease_share = 0.1f;       //!< ... and this share of its neighbours in them
 };
 
 //! A parallel-for supplied by the caller (src/ has no threads): runs body(context, i) once for every
@@ -193,6 +202,12 @@ class Localizer {
   void remove_bin_points(const LocalizeParams& params);
   //! Labels the scene's connected parts (neighbours within radius) into labels[].
   void connected_components(float radius_m);
+  //! segment(): labels concave-crease points -1 (labels[] zero on entry).
+  void mark_creases(const LocalizeParams& params);
+  //! segment(): region growing from every point labelled 0; new labels follow `label`; returns the last.
+  int32_t grow_regions(const LocalizeParams& params, int32_t label);
+  //! segment(): crease points (-1) join the neighbouring segment they continue smoothly.
+  void attach_creases(const LocalizeParams& params);
   std::size_t vote_model(int m, const LocalizeParams& params, std::size_t first_candidate);
   //! Votes of reference sample r of model m into accumulator `votes`; false when no peak.
   bool vote_reference(int m, std::size_t r, std::size_t ns, uint16_t* votes, PoseCandidate& out) const;
