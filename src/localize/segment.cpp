@@ -55,15 +55,18 @@ void Localizer::connected_components(float radius_m) {
 
 namespace {
 
-//! Calls f(j) for every scene point j in the grid cells within `k` cells of p (candidates only:
-//! the caller checks the distance).
+//! Calls f(j) for every scene point j in the grid cells that the ball of radius r around p
+//! overlaps (candidates only: the caller checks the distance). The exact cell range, not a cube of
+//! ceil(r / cell) cells either side: 2-3 cells per axis instead of 5 for the crease radius.
 template <typename F>
-inline void for_grid_neighbours(const LocalizeBuffers& b, float grid_inv, int k, const Vec3f& p, F&& f) {
-  const int32_t cx = floor_int(p.x() * grid_inv), cy = floor_int(p.y() * grid_inv), cz = floor_int(p.z() * grid_inv);
-  for (int dz = -k; dz <= k; ++dz)
-    for (int dy = -k; dy <= k; ++dy)
-      for (int dx = -k; dx <= k; ++dx) {
-        const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
+inline void for_grid_neighbours(const LocalizeBuffers& b, float grid_inv, float r, const Vec3f& p, F&& f) {
+  const int32_t x0 = floor_int((p.x() - r) * grid_inv), x1 = floor_int((p.x() + r) * grid_inv);
+  const int32_t y0 = floor_int((p.y() - r) * grid_inv), y1 = floor_int((p.y() + r) * grid_inv);
+  const int32_t z0 = floor_int((p.z() - r) * grid_inv), z1 = floor_int((p.z() + r) * grid_inv);
+  for (int32_t z = z0; z <= z1; ++z)
+    for (int32_t y = y0; y <= y1; ++y)
+      for (int32_t x = x0; x <= x1; ++x) {
+        const uint32_t h = grid_hash(x, y, z);
         for (uint32_t e = b.grid_buckets[h]; e < b.grid_buckets[h + 1]; ++e) f(b.grid_index[e]);
       }
 }
@@ -83,11 +86,10 @@ void Localizer::mark_creases(const LocalizeParams& params) {
   const float r = params.segment_crease_radius_m, r2 = r * r;
   const float cos_crease = std::cos(params.segment_crease_deg * 3.14159265f / 180.0f);
   const float concave = params.segment_crease_concave;
-  const int k = int(std::ceil(r * grid_inv_));
   for (std::size_t i = 0; i < n; ++i) {
     const ScenePoint& a = b_.scene[i];
     int near = 0, pairs = 0;
-    for_grid_neighbours(b_, grid_inv_, k, a.p, [&](uint32_t j) {
+    for_grid_neighbours(b_, grid_inv_, r, a.p, [&](uint32_t j) {
       const ScenePoint& c = b_.scene[j];
       const Vec3f d = c.p - a.p;
       const float dd = d.squaredNorm();
@@ -108,7 +110,6 @@ int32_t Localizer::grow_regions(const LocalizeParams& params, int32_t label) {
   const std::size_t n = scene_count_;
   const float r = params.segment_radius_m, r2 = r * r;
   const float cos_smooth = std::cos(params.segment_smooth_deg * 3.14159265f / 180.0f);
-  const int k = int(std::ceil(r * grid_inv_));
   for (std::size_t seed = 0; seed < n; ++seed) {
     if (b_.labels[seed] != 0) continue;
     ++label;
@@ -117,7 +118,7 @@ int32_t Localizer::grow_regions(const LocalizeParams& params, int32_t label) {
     b_.queue[tail++] = uint32_t(seed);
     for (std::size_t head = 0; head < tail; ++head) {
       const ScenePoint& a = b_.scene[b_.queue[head]];
-      for_grid_neighbours(b_, grid_inv_, k, a.p, [&](uint32_t j) {
+      for_grid_neighbours(b_, grid_inv_, r, a.p, [&](uint32_t j) {
         if (b_.labels[j] != 0) return;
         const ScenePoint& c = b_.scene[j];
         const Vec3f d = c.p - a.p;
@@ -148,17 +149,25 @@ void Localizer::attach_creases(const LocalizeParams& params) {
   const std::size_t n = scene_count_;
   const float r = params.segment_radius_m, r2 = r * r;
   const float cos_smooth = std::cos(params.segment_smooth_deg * 3.14159265f / 180.0f);
-  const int k = int(std::ceil(r * grid_inv_));
   for (int round = 0; round < 2; ++round) {
     const float cos_min = round == 0 ? cos_smooth : -2.0f;
+    // Seeds: the labelled points next to a crease point, in index order (sample[] flags them).
+    for (std::size_t i = 0; i < n; ++i) b_.sample[i] = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (b_.labels[i] != kCrease) continue;
+      const Vec3f p = b_.scene[i].p;
+      for_grid_neighbours(b_, grid_inv_, r, p, [&](uint32_t j) {
+        if (b_.labels[j] > 0 && (b_.scene[j].p - p).squaredNorm() <= r2) b_.sample[j] = 1;
+      });
+    }
     std::size_t tail = 0;
     for (std::size_t i = 0; i < n; ++i)
-      if (b_.labels[i] > 0) b_.queue[tail++] = uint32_t(i);
+      if (b_.sample[i]) b_.queue[tail++] = uint32_t(i);
     for (std::size_t head = 0; head < tail; ++head) {
       const uint32_t ia = b_.queue[head];
       const ScenePoint& a = b_.scene[ia];
       const int32_t la = b_.labels[ia];
-      for_grid_neighbours(b_, grid_inv_, k, a.p, [&](uint32_t j) {
+      for_grid_neighbours(b_, grid_inv_, r, a.p, [&](uint32_t j) {
         if (b_.labels[j] != kCrease) return;
         const ScenePoint& c = b_.scene[j];
         if (a.n.dot(c.n) <= cos_min || (c.p - a.p).squaredNorm() > r2) return;
@@ -167,6 +176,52 @@ void Localizer::attach_creases(const LocalizeParams& params) {
       });
     }
   }
+}
+
+void Localizer::sort_by_label(std::size_t labels_n) {
+  const std::size_t n = scene_count_;
+  for (std::size_t l = 0; l < labels_n; ++l) b_.sample[l] = 0;
+  for (std::size_t i = 0; i < n; ++i) ++b_.sample[b_.labels[i]];
+  uint32_t acc = 0;
+  for (std::size_t l = 0; l < labels_n; ++l) {
+    const uint32_t c = b_.sample[l];
+    b_.sample[l] = acc;
+    acc += c;
+  }
+  for (std::size_t i = 0; i < n; ++i) b_.queue[b_.sample[b_.labels[i]]++] = uint32_t(i);
+}
+
+bool Localizer::merge_small_segments(const LocalizeParams& params, std::size_t labels_n) {
+  // A piece smaller than segment_min_points that touches a segment large enough to be reported
+  // joins the one with the closest point: the crease cut and noisy normals leave such chips along
+  // edges and on curved parts (a tin lying on its side lost 10 % of its points to them); alone
+  // they would be dropped as noise.
+  const float r = params.segment_radius_m, r2 = r * r;
+  const uint32_t min_points = uint32_t(params.segment_min_points);
+  auto size_of = [&](std::size_t l) { return b_.sample[l] - (l ? b_.sample[l - 1] : 0u); };
+  bool merged = false;
+  for (std::size_t l = 1; l < labels_n; ++l) {
+    const uint32_t start = b_.sample[l - 1], end = b_.sample[l];
+    if (end == start || end - start >= min_points) continue;
+    float best = r2;
+    int32_t target = 0;
+    for (uint32_t q = start; q < end; ++q) {
+      const Vec3f p = b_.scene[b_.queue[q]].p;
+      for_grid_neighbours(b_, grid_inv_, r, p, [&](uint32_t j) {
+        const int32_t lj = b_.labels[j];
+        if (lj <= 0 || std::size_t(lj) == l || size_of(std::size_t(lj)) < min_points) return;
+        const float dd = (b_.scene[j].p - p).squaredNorm();
+        if (dd < best) {
+          best = dd;
+          target = lj;
+        }
+      });
+    }
+    if (target == 0) continue;
+    for (uint32_t q = start; q < end; ++q) b_.labels[b_.queue[q]] = target;
+    merged = true;
+  }
+  return merged;
 }
 
 Status Localizer::segment(const LocalizeParams& params, int max_results, std::size_t& count) {
@@ -193,15 +248,8 @@ Status Localizer::segment(const LocalizeParams& params, int max_results, std::si
     label = int32_t(b_.scene_points_max) - 1;
   }
   const std::size_t labels_n = std::min<std::size_t>(std::size_t(label) + 1, b_.scene_points_max);
-  for (std::size_t l = 0; l < labels_n; ++l) b_.sample[l] = 0;
-  for (std::size_t i = 0; i < n; ++i) ++b_.sample[b_.labels[i]];
-  uint32_t acc = 0;
-  for (std::size_t l = 0; l < labels_n; ++l) {
-    const uint32_t c = b_.sample[l];
-    b_.sample[l] = acc;
-    acc += c;
-  }
-  for (std::size_t i = 0; i < n; ++i) b_.queue[b_.sample[b_.labels[i]]++] = uint32_t(i);
+  sort_by_label(labels_n);
+  if (params.segment_merge_small && merge_small_segments(params, labels_n)) sort_by_label(labels_n);
   for (std::size_t l = 1; l < labels_n; ++l) {
     const std::size_t start = b_.sample[l - 1], tail = b_.sample[l];
     // The segment is queue[start, tail): keep it if large enough.

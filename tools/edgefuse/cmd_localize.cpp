@@ -44,7 +44,8 @@ const char* kUsage =
     "           a folder of them or a list of files, [localize] bin = a --bin file; paths relative to the file)\n"
     "           [--seg-smooth DEG] [--seg-concave TOL] [--seg-radius M] [--seg-colour TOL]\n"
     "           [--seg-crease DEG (0: off)] [--seg-crease-radius M] [--seg-crease-concave C] [--seg-crease-pairs N]\n"
-    "           [--seg-crease-share S] (region growing and its concave-crease cut, see localizer.hpp)\n"
+    "           [--seg-crease-share S] [--seg-keep-small] (region growing, its concave-crease cut and the merge of\n"
+    "           small pieces into their neighbour, see localizer.hpp)\n"
     "  INPUT: a rig set or depth-sequence folder (fused at its ground-truth poses), a single-frame folder\n"
     "  (depth.png + camera.toml, fused as one frame), or a PLY/PCD cloud (organised clouds get normals from\n"
     "  their image neighbours, unorganised ones without normals by PCA; no free-space check on clouds).\n"
@@ -95,7 +96,7 @@ int cmd_localize(int argc, char** argv) {
   Args args;
   std::string err;
   if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "config", "seg-smooth", "seg-concave", "seg-radius", "seg-colour", "seg-crease", "seg-crease-radius", "seg-crease-concave", "seg-crease-pairs", "seg-crease-share"},
-                  {"segments", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame"}, err) ||
+                  {"segments", "seg-keep-small", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
     return 2;
@@ -128,6 +129,7 @@ int cmd_localize(int argc, char** argv) {
   fs.threads = defaults.threads;
   fs.dim = board.volume_dim;
   LocalizeParams params;
+  if (args.has("seg-keep-small")) params.segment_merge_small = false;
   if (!args.get_int("max", 1, board.objects_max, max_results, err) || !args.get_int("frames", 1, 1 << 30, frames_max, err) ||
       !args.get_float("voxel", 1e-4f, 1.0f, fs.voxel_m, err) || !args.get_int("volume", 8, board.volume_dim, fs.dim, err) ||
       !args.get_int("threads", 1, 64, fs.threads, err) || !args.get_float("min-score", 0.0f, 1.0f, params.min_score, err) ||

@@ -84,10 +84,15 @@ struct LocalizeParams {
   //! sense ((n_j - n_i).(p_j - p_i) < -segment_crease_concave |p_j - p_i|) are kept out of the region
   //! growing and attached afterwards to the segment they continue smoothly. 0 deg: off.
   float segment_crease_deg = 30.0f;
-  float segment_crease_radius_m = 0.008f;  //!< neighbourhood of the crease test (band half-width)
+  //! Neighbourhood of the crease test = the band's half-width; must exceed segment_radius_m clearly (the
+  //! band's two unmarked sides are about 1.4 x this apart, minus noise): on mOSD 5 mm merged a stack again.
+  float segment_crease_radius_m = 0.007f;
   float segment_crease_concave = 0.3f;     //!< concavity of a crease pair (right angle: 1 .. 1.41)
   int segment_crease_min_pairs = 4;        //!< a crease point has at least this many crease pairs ...
-  float segment_crease_share = 0.1f;       //!< ... and this share of its neighbours in them
+  float segment_crease_share = 0.15f;      //!< ... and this share of its neighbours in them
+  //! Pieces smaller than segment_min_points join the reported segment they touch (closest point)
+  //! instead of being dropped.
+  bool segment_merge_small = true;
 };
 
 //! A parallel-for supplied by the caller (src/ has no threads): runs body(context, i) once for every
@@ -208,6 +213,10 @@ class Localizer {
   int32_t grow_regions(const LocalizeParams& params, int32_t label);
   //! segment(): crease points (-1) join the neighbouring segment they continue smoothly.
   void attach_creases(const LocalizeParams& params);
+  //! segment(): members of each label contiguous in queue[]; sample[l] = end of label l's run.
+  void sort_by_label(std::size_t labels_n);
+  //! segment(): small pieces join a touching large segment (after sort_by_label); true if any did.
+  bool merge_small_segments(const LocalizeParams& params, std::size_t labels_n);
   std::size_t vote_model(int m, const LocalizeParams& params, std::size_t first_candidate);
   //! Votes of reference sample r of model m into accumulator `votes`; false when no peak.
   bool vote_reference(int m, std::size_t r, std::size_t ns, uint16_t* votes, PoseCandidate& out) const;
