@@ -141,40 +141,66 @@ int32_t Localizer::grow_regions(const LocalizeParams& params, int32_t label) {
 }
 
 void Localizer::attach_creases(const LocalizeParams& params) {
-  // Crease points join the segment next to them whose surface they continue smoothly
-  // (breadth-first from every labelled point in index order: deterministic, each side of a crease
-  // takes its own half of the band). Crease points no segment reaches stay kCrease.
-  // A second round without the normal test gives the blended points right on the crease line to
-  // the nearer side (they are the boundary, not a part of their own).
+  // Crease points join the segment next to them whose surface they continue smoothly: breadth-first
+  // from the labelled points next to the band, in index order (deterministic), each side taking its
+  // own half of the band. The normal test is against the seed's normal (sample[] keeps the seed), so
+  // a chain of small turns cannot walk through the blended crease line to the other side.
+  // The blended points on the line itself then go, in sweeps, to the labelled neighbour whose normal
+  // is closest to theirs (they are the boundary, not a part of their own); any left stay kCrease.
   const std::size_t n = scene_count_;
   const float r = params.segment_radius_m, r2 = r * r;
   const float cos_smooth = std::cos(params.segment_smooth_deg * 3.14159265f / 180.0f);
-  for (int round = 0; round < 2; ++round) {
-    const float cos_min = round == 0 ? cos_smooth : -2.0f;
-    // Seeds: the labelled points next to a crease point, in index order (sample[] flags them).
-    for (std::size_t i = 0; i < n; ++i) b_.sample[i] = 0;
+  for (std::size_t i = 0; i < n; ++i) b_.sample[i] = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (b_.labels[i] != kCrease) continue;
+    const Vec3f p = b_.scene[i].p;
+    for_grid_neighbours(b_, grid_inv_, r, p, [&](uint32_t j) {
+      if (b_.labels[j] > 0 && (b_.scene[j].p - p).squaredNorm() <= r2) b_.sample[j] = 1;
+    });
+  }
+  std::size_t tail = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (b_.sample[i]) {
+      b_.sample[i] = uint32_t(i);
+      b_.queue[tail++] = uint32_t(i);
+    }
+  for (std::size_t head = 0; head < tail; ++head) {
+    const uint32_t ia = b_.queue[head];
+    const ScenePoint& a = b_.scene[ia];
+    const int32_t la = b_.labels[ia];
+    const uint32_t origin = b_.sample[ia];
+    const Vec3f& n0 = b_.scene[origin].n;
+    for_grid_neighbours(b_, grid_inv_, r, a.p, [&](uint32_t j) {
+      if (b_.labels[j] != kCrease) return;
+      const ScenePoint& c = b_.scene[j];
+      if (n0.dot(c.n) <= cos_smooth || (c.p - a.p).squaredNorm() > r2) return;
+      b_.labels[j] = la;
+      b_.sample[j] = origin;
+      b_.queue[tail++] = j;
+    });
+  }
+  for (int sweep = 0; sweep < 8; ++sweep) {
+    bool changed = false;
     for (std::size_t i = 0; i < n; ++i) {
       if (b_.labels[i] != kCrease) continue;
-      const Vec3f p = b_.scene[i].p;
-      for_grid_neighbours(b_, grid_inv_, r, p, [&](uint32_t j) {
-        if (b_.labels[j] > 0 && (b_.scene[j].p - p).squaredNorm() <= r2) b_.sample[j] = 1;
-      });
-    }
-    std::size_t tail = 0;
-    for (std::size_t i = 0; i < n; ++i)
-      if (b_.sample[i]) b_.queue[tail++] = uint32_t(i);
-    for (std::size_t head = 0; head < tail; ++head) {
-      const uint32_t ia = b_.queue[head];
-      const ScenePoint& a = b_.scene[ia];
-      const int32_t la = b_.labels[ia];
+      const ScenePoint& a = b_.scene[i];
+      float best = -2.0f;
+      int32_t target = 0;
       for_grid_neighbours(b_, grid_inv_, r, a.p, [&](uint32_t j) {
-        if (b_.labels[j] != kCrease) return;
-        const ScenePoint& c = b_.scene[j];
-        if (a.n.dot(c.n) <= cos_min || (c.p - a.p).squaredNorm() > r2) return;
-        b_.labels[j] = la;
-        b_.queue[tail++] = j;
+        const int32_t lj = b_.labels[j];
+        if (lj <= 0 || (b_.scene[j].p - a.p).squaredNorm() > r2) return;
+        const float d = a.n.dot(b_.scene[j].n);
+        if (d > best) {
+          best = d;
+          target = lj;
+        }
       });
+      if (target > 0) {
+        b_.labels[i] = target;
+        changed = true;
+      }
     }
+    if (!changed) break;
   }
 }
 
