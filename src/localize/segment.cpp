@@ -82,15 +82,28 @@ void Localizer::mark_creases(const LocalizeParams& params) {
   // plane about 0, a convex box edge > 0). Normals estimated across the crease are blended, so the
   // region growing's "smooth" test alone walks through it in small turns (a box on a box, a can
   // on a tin); without the band of crease points the two sides are 2 radii apart.
-  const std::size_t n = scene_count_;
+  // The test is the costliest part of segment(): it runs in kCreaseChunks chunks over the caller's
+  // threads (each point writes only its own label, so the result does not depend on the threads).
+  job_params_ = &params;
+  if (parallel_.run) parallel_.run(parallel_.runner, kCreaseChunks, &Localizer::crease_job, this);
+  else
+    for (std::size_t c = 0; c < kCreaseChunks; ++c) crease_job(this, c);
+}
+
+void Localizer::crease_job(void* self, std::size_t chunk) {
+  Localizer& L = *static_cast<Localizer*>(self);
+  const LocalizeParams& params = *L.job_params_;
+  const LocalizeBuffers& b = L.b_;
+  const std::size_t n = L.scene_count_;
   const float r = params.segment_crease_radius_m, r2 = r * r;
   const float cos_crease = std::cos(params.segment_crease_deg * 3.14159265f / 180.0f);
   const float concave = params.segment_crease_concave;
-  for (std::size_t i = 0; i < n; ++i) {
-    const ScenePoint& a = b_.scene[i];
+  const std::size_t begin = n * chunk / kCreaseChunks, end = n * (chunk + 1) / kCreaseChunks;
+  for (std::size_t i = begin; i < end; ++i) {
+    const ScenePoint& a = b.scene[i];
     int near = 0, pairs = 0;
-    for_grid_neighbours(b_, grid_inv_, r, a.p, [&](uint32_t j) {
-      const ScenePoint& c = b_.scene[j];
+    for_grid_neighbours(b, L.grid_inv_, r, a.p, [&](uint32_t j) {
+      const ScenePoint& c = b.scene[j];
       const Vec3f d = c.p - a.p;
       const float dd = d.squaredNorm();
       if (dd > r2 || !(dd > 0)) return;
@@ -100,7 +113,7 @@ void Localizer::mark_creases(const LocalizeParams& params) {
     });
     // A crease is seen by many neighbours; noisy normals (far or dark surfaces) give single pairs.
     const bool crease = pairs >= params.segment_crease_min_pairs && float(pairs) >= params.segment_crease_share * float(near);
-    if (crease) b_.labels[i] = kCrease;
+    if (crease) b.labels[i] = kCrease;
   }
 }
 

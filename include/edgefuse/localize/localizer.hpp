@@ -209,6 +209,8 @@ class Localizer {
   void connected_components(float radius_m);
   //! segment(): labels concave-crease points -1 (labels[] zero on entry).
   void mark_creases(const LocalizeParams& params);
+  static constexpr std::size_t kCreaseChunks = 8;  //!< mark_creases jobs (fixed: same labels for any thread count)
+  static void crease_job(void* self, std::size_t chunk);
   //! segment(): region growing from every point labelled 0; new labels follow `label`; returns the last.
   int32_t grow_regions(const LocalizeParams& params, int32_t label);
   //! segment(): crease points (-1) join the neighbouring segment they continue smoothly.
