@@ -1,8 +1,11 @@
 // Model-free segments: region growing over the scene left after bin removal. Neighbours (within
 // segment_radius_m) join when their normals agree (smooth surface) or when the connection is
 // convex ((n_j - n_i) . (p_j - p_i) >= 0, as at a box edge); a concave connection (a box resting
-// on another, two parts touching) separates segments. Each segment gets an oriented box (PCA),
-// a grasp point on its top surface and the approach direction.
+// on another, two parts touching) separates segments. Measured normals blend across a concave
+// crease, so the smooth test alone walks through it: the crease band is marked first, kept out of
+// the growing and attached afterwards (mark_creases, attach_creases); small pieces join the segment
+// they touch. Each segment gets an oriented box (PCA), a grasp point on its top surface and the
+// approach direction.
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>

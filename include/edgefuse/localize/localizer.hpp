@@ -4,7 +4,8 @@
 // clustering, point-to-plane ICP against the full scene, verification by the share of the visible
 // model surface the scene supports and by free-space violations (model surface where the TSDF
 // knows the space is empty). Model-free: bin removed, region growing that joins neighbours across
-// smooth or convex connections (so stacked boxes split at their concave contact).
+// smooth or convex connections, with the band along concave creases cut out first and attached
+// afterwards (so stacked boxes split at their concave contact even where normals blend across it).
 //
 // Memory: models are sampled once at start-up into fixed tables; localising touches only the
 // static buffers below (no allocation). Results are deterministic (no random sampling; the bin
