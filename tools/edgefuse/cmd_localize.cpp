@@ -43,7 +43,9 @@ const char* kUsage =
     "           [--config FILE.toml] (models and bin named in a runtime configuration: [localize] models = a PLY,\n"
     "           a folder of them or a list of files, [localize] bin = a --bin file; paths relative to the file)\n"
     "           [--seg-smooth DEG] [--seg-concave TOL] [--seg-radius M] [--seg-colour TOL]\n"
-    "           (region growing, see localizer.hpp)\n"
+    "           [--seg-crease DEG (0: off)] [--seg-crease-radius M] [--seg-crease-concave C] [--seg-crease-pairs N]\n"
+    "           [--seg-crease-share S] [--seg-keep-small] (region growing, its concave-crease cut and the merge of\n"
+    "           small pieces into their neighbour, see localizer.hpp)\n"
     "  INPUT: a rig set or depth-sequence folder (fused at its ground-truth poses), a single-frame folder\n"
     "  (depth.png + camera.toml, fused as one frame), or a PLY/PCD cloud (organised clouds get normals from\n"
     "  their image neighbours, unorganised ones without normals by PCA; no free-space check on clouds).\n"
@@ -93,8 +95,8 @@ int cmd_localize(int argc, char** argv) {
   }
   Args args;
   std::string err;
-  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "config", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
-                  {"segments", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame"}, err) ||
+  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "config", "seg-smooth", "seg-concave", "seg-radius", "seg-colour", "seg-crease", "seg-crease-radius", "seg-crease-concave", "seg-crease-pairs", "seg-crease-share"},
+                  {"segments", "seg-keep-small", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
     return 2;
@@ -127,6 +129,7 @@ int cmd_localize(int argc, char** argv) {
   fs.threads = defaults.threads;
   fs.dim = board.volume_dim;
   LocalizeParams params;
+  if (args.has("seg-keep-small")) params.segment_merge_small = false;
   if (!args.get_int("max", 1, board.objects_max, max_results, err) || !args.get_int("frames", 1, 1 << 30, frames_max, err) ||
       !args.get_float("voxel", 1e-4f, 1.0f, fs.voxel_m, err) || !args.get_int("volume", 8, board.volume_dim, fs.dim, err) ||
       !args.get_int("threads", 1, 64, fs.threads, err) || !args.get_float("min-score", 0.0f, 1.0f, params.min_score, err) ||
@@ -134,6 +137,11 @@ int cmd_localize(int argc, char** argv) {
       !args.get_float("seg-concave", -1.0f, 1.0f, params.segment_concave_tol, err) ||
       !args.get_float("seg-radius", 0.001f, 0.1f, params.segment_radius_m, err) ||
       !args.get_int("seg-colour", 0, 765, params.segment_colour_tol, err) ||
+      !args.get_float("seg-crease", 0.0f, 90.0f, params.segment_crease_deg, err) ||
+      !args.get_float("seg-crease-radius", 0.001f, 0.1f, params.segment_crease_radius_m, err) ||
+      !args.get_float("seg-crease-concave", 0.0f, 1.5f, params.segment_crease_concave, err) ||
+      !args.get_int("seg-crease-pairs", 1, 10000, params.segment_crease_min_pairs, err) ||
+      !args.get_float("seg-crease-share", 0.0f, 1.0f, params.segment_crease_share, err) ||
       !args.get_int("icp-iterations", 1, 100, params.icp_iterations, err) ||
       !args.get_float("max-incidence", 1.0f, 90.0f, params.max_incidence_deg, err)) {
     std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
@@ -399,10 +407,13 @@ int cmd_localize(int argc, char** argv) {
       return 1;
     }
     std::vector<ScenePoint> pts;
+    const double t_normals = cpu_ms();  // normals of a cloud are not part of the pose-list clock: own figure
     if (!cloud_scene_points(in_cloud, pts, err)) {
       std::fprintf(stderr, "edgefuse localize: %s: %s\n", input.c_str(), err.c_str());
       return 1;
     }
+    std::printf("normals_cpu_ms=%.1f (cloud normals and scene points, before the localisation clock starts)\n",
+                cpu_ms() - t_normals);
     ctx.viewpoint_m = Vec3f::Zero();  // a cloud is in its camera's frame
     t_start_cpu = cpu_ms();
     t_start_proc = cpu_ms(CLOCK_PROCESS_CPUTIME_ID);
