@@ -5,7 +5,7 @@
 // --dump / --compare write and compare the raycast depth and normal maps of two builds, so a
 // speed change can be shown not to change the result. Host only; allocates freely.
 //
-// usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R]
+// usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R] [--no-colour-map]
 //                            [--no-raycast] [--dump FILE] [--compare FILE]
 #include <time.h>
 
@@ -90,16 +90,17 @@ bool compare_dumps(const MapDump& mine, const std::string& path, std::size_t pix
 
 const char* kUsage =
     "usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R] [--no-raycast]\n"
-    "                           [--dump FILE] [--compare FILE]\n"
+    "                           [--no-colour-map] [--dump FILE] [--compare FILE]\n"
     "  Fuses DATASET at its ground-truth poses (board defaults; --voxel sets trunc = 4 voxels), timing each\n"
-    "  integration, then raycasts every pose R times (default 3) on the final volume. Thread CPU time.\n";
+    "  integration, then raycasts every pose R times (default 3) on the final volume. Thread CPU time.\n"
+    "  --no-colour-map raycasts depth, vertex and normal only, as the tracking loop does.\n";
 
 }  // namespace
 
 int main(int argc, char** argv) {
   Args args;
   std::string err;
-  if (!args.parse(argc - 1, argv + 1, {"sensor", "frames", "voxel", "reps", "dump", "compare"}, {"no-raycast"}, err) ||
+  if (!args.parse(argc - 1, argv + 1, {"sensor", "frames", "voxel", "reps", "dump", "compare"}, {"no-raycast", "no-colour-map"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n%s", err.empty() ? "expected one DATASET" : err.c_str(), kUsage);
     return 2;
@@ -132,6 +133,7 @@ int main(int argc, char** argv) {
   const std::size_t pixels = std::size_t(W) * H;
   double integrate_ms = 0.0, raycast_fuse_ms = 0.0;
   const bool cast = !args.has("no-raycast");
+  if (args.has("no-colour-map")) core.maps.colour = ImageView<Rgba8>();  // as edgefuse track
   for (std::size_t i = 0; i < n; ++i) {
     if (!io::load_depth(seq.frames[i], seq.intr, depth, err) ||
         (use_colour && !io::load_colour(seq.frames[i], seq.intr, colour, err))) {
