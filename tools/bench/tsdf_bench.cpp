@@ -167,7 +167,6 @@ int main(int argc, char** argv) {
   mix(core.volume.brick_flags(), core.volume.brick_count());
   MapDump dump;
   double raycast_ms = 0.0, prepare_ms = 0.0;
-  std::size_t hits = 0;
   int casts = 0;
   for (int r = 0; cast && r < reps; ++r)
     for (std::size_t i = 0; i < n; ++i) {
@@ -176,12 +175,12 @@ int main(int argc, char** argv) {
       raycast_ms += thread_cpu_ms() - t0;
       ++casts;
       if (r == 0) dump.add(core.maps, pixels);
-      hits = 0;  // of the raycast (the prepare_raycast timed below leaves its bounds in the depth map)
-      for (std::size_t k = 0; k < pixels; ++k) hits += core.maps.depth_m.data[k] > 0.0f;
       t0 = thread_cpu_ms();
       prepare_raycast(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps, core.scratch);
       prepare_ms += thread_cpu_ms() - t0;
     }
+  std::size_t hits = 0;
+  for (std::size_t k = 0; k < pixels; ++k) hits += core.maps.depth_m.data[k] > 0.0f;
   std::printf("%s %dx%d, %d^3 x %.4g m (%s), %zu frames: integrate %.2f ms/frame thread CPU", seq.root.c_str(), W, H,
               s.dim, double(s.voxel_m), std::is_same<real_t, float>::value ? "float" : "Q16.16", n, integrate_ms / n);
   if (cast)
