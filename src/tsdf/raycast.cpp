@@ -5,7 +5,6 @@
 #include <type_traits>
 
 #include "kernel_math.hpp"
-#include "pixel_bounds.hpp"
 #include "tsdf_sampler.hpp"
 
 namespace edgefuse {
@@ -150,7 +149,6 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
     scratch.model_min_z[i] = 1e30f;
     scratch.model_max_z[i] = -1.0f;
   }
-  pixel_bounds::clear(maps.depth_m);
   const Pose T_cam_world = T_world_cam.inverse();
   const float vs = volume.voxel_m();
   const uint8_t* flags = volume.brick_flags();
@@ -226,14 +224,6 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
         scratch.model_min_z[t] = std::min(scratch.model_min_z[t], z_lo);
         scratch.model_max_z[t] = std::max(scratch.model_max_z[t], z_hi);
       }
-    // Each pixel's own range through the box; only pixels inside the corners' projection (a
-    // pixel of slack for rounding) can see it.
-    const int pu0 = std::max(0, int(std::ceil(std::max(u_lo, -1e6f) - 0.01f)));
-    const int pu1 = std::min(intr.width - 1, int(std::floor(std::min(u_hi, 1e6f) + 0.01f)));
-    const int pv0 = std::max(0, int(std::ceil(std::max(v_lo, -1e6f) - 0.01f)));
-    const int pv1 = std::min(intr.height - 1, int(std::floor(std::min(v_hi, 1e6f) + 0.01f)));
-    if (pu0 <= pu1 && pv0 <= pv1)
-      pixel_bounds::add_box(maps.depth_m, intr, T_world_cam, box_lo, box_hi, pu0, pu1, pv0, pv1);
   }
   return Status::kOk;
 }
@@ -282,7 +272,7 @@ class RayMarcher {
         dz_wrap_(nb2_ * kBrickVoxels - 448u),
         // The positive band in front of a surface has |tsdf| < 1, so it belongs to surface bricks
         // too: starting at the tiles' near bound still leaves a positive sample before every crossing.
-        margin_(real_from<Real>(volume.voxel_m())), f_max_z_(intr.max_range_m),
+        margin_(real_from<Real>(volume.voxel_m())),
         want_vertex_(!maps.vertex.empty()), want_normal_(!maps.normal.empty()), clear_colour_(!maps.colour.empty()),
         want_colour_(!maps.colour.empty() && volume.has_colour()) {
     for (int axis = 0; axis < 3; ++axis)
@@ -294,16 +284,13 @@ class RayMarcher {
     const Real zero = real_from_int<Real>(0);
     const Real half = real_from<Real>(0.5f);
     const Real one = real_from_int<Real>(1);
-    // The z range of this pixel's ray through the surface bricks (pixel_bounds.hpp), read before
-    // its depth overwrites it.
-    const float near_m = maps_.depth_m.at(u, v);
     maps_.depth_m.at(u, v) = 0.0f;
     if (want_vertex_) maps_.vertex.at(u, v) = Vec3f::Zero();
     if (want_normal_) maps_.normal.at(u, v) = Vec3f::Zero();
     if (clear_colour_) maps_.colour.at(u, v) = Rgba8{};
     // The z range where this tile's surface bricks lie (and a voxel of slack).
     const std::size_t tile = std::size_t(v / FrameScratch::kTile) * tiles_x_ + std::size_t(u / FrameScratch::kTile);
-    if (scratch_.model_max_z[tile] < 0.0f || !(near_m < pixel_bounds::kNoBox)) return false;
+    if (scratch_.model_max_z[tile] < 0.0f) return false;
     r.u = u;
     r.v = v;
     // Ray (x, y, 1) in the camera frame: t along it is the z-depth.
@@ -318,7 +305,7 @@ class RayMarcher {
     r.nudge = real_from<Real>(1.0f / 64.0f) * f_.voxel * r.z_per_m;
     r.half_trunc = max_r(half * f_.trunc * r.z_per_m, r.min_step);
     r.far_step = max_r((f_.trunc - f_.voxel) * r.z_per_m, r.min_step);
-    r.t = max_r(f_.min_z, real_from<Real>(std::min(near_m, f_max_z_)) - margin_);
+    r.t = max_r(f_.min_z, real_from<Real>(scratch_.model_min_z[tile]) - margin_);
     r.t_end = min_r(f_.max_z, real_from<Real>(scratch_.model_max_z[tile]) + margin_);
     if (!clip_to_grid(f_, r.dir, r.t, r.t_end)) return false;
     // Start and stop a little inside the grid: the clip is exact only up to rounding.
@@ -582,7 +569,6 @@ class RayMarcher {
   const int tiles_x_;
   const uint32_t last_, nb_, nb2_, dy_wrap_, dz_wrap_;
   const Real margin_;
-  const float f_max_z_;
   const bool want_vertex_, want_normal_, clear_colour_, want_colour_;
   uint32_t axis_index_[3][kRaycastDimMax];  // axis_part per coordinate (12 KiB of stack)
 };
