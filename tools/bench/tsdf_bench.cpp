@@ -5,7 +5,7 @@
 // --dump / --compare write and compare the raycast depth and normal maps of two builds, so a
 // speed change can be shown not to change the result. Host only; allocates freely.
 //
-// usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R]
+// usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R] [--no-colour-map] [--truth]
 //                            [--no-raycast] [--dump FILE] [--compare FILE]
 #include <time.h>
 
@@ -90,16 +90,18 @@ bool compare_dumps(const MapDump& mine, const std::string& path, std::size_t pix
 
 const char* kUsage =
     "usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R] [--no-raycast]\n"
-    "                           [--dump FILE] [--compare FILE]\n"
+    "                           [--no-colour-map] [--truth] [--dump FILE] [--compare FILE]\n"
     "  Fuses DATASET at its ground-truth poses (board defaults; --voxel sets trunc = 4 voxels), timing each\n"
-    "  integration, then raycasts every pose R times (default 3) on the final volume. Thread CPU time.\n";
+    "  integration, then raycasts every pose R times (default 3) on the final volume. Thread CPU time.\n"
+    "  --no-colour-map raycasts depth, vertex and normal only, as the tracking loop does.\n"
+    "  --truth compares the final raycasts with the frames' own depth images (pixels off by > 1 cm).\n";
 
 }  // namespace
 
 int main(int argc, char** argv) {
   Args args;
   std::string err;
-  if (!args.parse(argc - 1, argv + 1, {"sensor", "frames", "voxel", "reps", "dump", "compare"}, {"no-raycast"}, err) ||
+  if (!args.parse(argc - 1, argv + 1, {"sensor", "frames", "voxel", "reps", "dump", "compare"}, {"no-raycast", "no-colour-map", "truth"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n%s", err.empty() ? "expected one DATASET" : err.c_str(), kUsage);
     return 2;
@@ -132,6 +134,7 @@ int main(int argc, char** argv) {
   const std::size_t pixels = std::size_t(W) * H;
   double integrate_ms = 0.0, raycast_fuse_ms = 0.0;
   const bool cast = !args.has("no-raycast");
+  if (args.has("no-colour-map")) core.maps.colour = ImageView<Rgba8>();  // as edgefuse track
   for (std::size_t i = 0; i < n; ++i) {
     if (!io::load_depth(seq.frames[i], seq.intr, depth, err) ||
         (use_colour && !io::load_colour(seq.frames[i], seq.intr, colour, err))) {
@@ -165,6 +168,8 @@ int main(int argc, char** argv) {
   mix(core.volume.brick_flags(), core.volume.brick_count());
   MapDump dump;
   double raycast_ms = 0.0, prepare_ms = 0.0;
+  std::size_t truth_both = 0, truth_off_1cm = 0;
+  std::size_t hits = 0;
   int casts = 0;
   for (int r = 0; cast && r < reps; ++r)
     for (std::size_t i = 0; i < n; ++i) {
@@ -173,12 +178,25 @@ int main(int argc, char** argv) {
       raycast_ms += thread_cpu_ms() - t0;
       ++casts;
       if (r == 0) dump.add(core.maps, pixels);
+      if (r == 0 && args.has("truth")) {
+        // The final raycast at a frame's pose against that frame's own depth image.
+        if (!io::load_depth(seq.frames[i], seq.intr, depth, err)) {
+          std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", err.c_str());
+          return 1;
+        }
+        for (std::size_t k = 0; k < pixels; ++k) {
+          const float z = core.maps.depth_m.data[k], m = float(depth[k]) / seq.intr.depth_scale;
+          if (!(z > 0.0f) || depth[k] == 0) continue;
+          ++truth_both;
+          truth_off_1cm += std::fabs(z - m) > 0.01f;
+        }
+      }
+      hits = 0;  // of the raycast (the prepare_raycast timed below leaves its bounds in the depth map)
+      for (std::size_t k = 0; k < pixels; ++k) hits += core.maps.depth_m.data[k] > 0.0f;
       t0 = thread_cpu_ms();
       prepare_raycast(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps, core.scratch);
       prepare_ms += thread_cpu_ms() - t0;
     }
-  std::size_t hits = 0;
-  for (std::size_t k = 0; k < pixels; ++k) hits += core.maps.depth_m.data[k] > 0.0f;
   std::printf("%s %dx%d, %d^3 x %.4g m (%s), %zu frames: integrate %.2f ms/frame thread CPU", seq.root.c_str(), W, H,
               s.dim, double(s.voxel_m), std::is_same<real_t, float>::value ? "float" : "Q16.16", n, integrate_ms / n);
   if (cast)
@@ -187,6 +205,9 @@ int main(int argc, char** argv) {
                 raycast_fuse_ms / n, raycast_ms / std::max(casts, 1), casts, prepare_ms / std::max(casts, 1),
                 100.0 * hits / pixels);
   std::printf("\nvolume checksum %016llx\n", static_cast<unsigned long long>(checksum));
+  if (args.has("truth"))
+    std::printf("against the frames' depth: %zu pixels with both, %zu off by more than 1 cm\n", truth_both,
+                truth_off_1cm);
   if (args.has("dump")) {
     FILE* fp = std::fopen(args.get("dump").c_str(), "wb");
     if (fp == nullptr || std::fwrite(dump.values.data(), sizeof(float), dump.values.size(), fp) != dump.values.size()) {
