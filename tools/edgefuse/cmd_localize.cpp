@@ -175,6 +175,10 @@ int cmd_localize(int argc, char** argv) {
     const ModelInfo& mi = loc.model(index);
     std::printf("model %d: %s, diameter %.1f mm, %u dense samples, %u PPF samples (step %.1f mm), %u table entries\n",
                 index, mi.name, mi.diameter_m * 1e3, mi.dense_count, mi.ppf_count, mi.ppf_step_m * 1e3, mi.entry_count);
+    std::printf("  %d resting faces (down, object frame):", mi.rest_count);
+    for (int k = 0; k < mi.rest_count; ++k)
+      std::printf(" (%.2f %.2f %.2f)", mi.rest_down[k].x(), mi.rest_down[k].y(), mi.rest_down[k].z());
+    std::printf("\n");
   }
 
   // Start-up: hypothesis refinement / verification run over --threads workers (same results for any count).
