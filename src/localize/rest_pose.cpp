@@ -329,7 +329,6 @@ std::size_t Localizer::queue_rest_hypotheses(int m, const LocalizeParams& params
     return pose_before(a.T_world_object, b.T_world_object);
   });
   Pose cl_T[kRestClusters];
-  float cl_votes[kRestClusters];
   int ncl = 0;
   const float dt = params.cluster_trans_rel * info.diameter_m;
   const float cos_dr = std::cos(params.cluster_rot_deg * ppf::kPi / 180.0f);
@@ -340,8 +339,7 @@ std::size_t Localizer::queue_rest_hypotheses(int m, const LocalizeParams& params
           0.5f * ((cl_T[c].R.transpose() * cand[k].T_world_object.R).trace() - 1.0f) > cos_dr)
         found = c;
     if (found < 0 && ncl < kRestClusters) {
-      cl_T[ncl] = cand[k].T_world_object;
-      cl_votes[ncl++] = cand[k].votes;  // its strongest peak (a sum favours broad, ambiguous flat matches)
+      cl_T[ncl++] = cand[k].T_world_object;  // its strongest peak: later, weaker ones add nothing
     }
   }
   // The strongest clusters are ranked by what they explain: visible model samples (facing the

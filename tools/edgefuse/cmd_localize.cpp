@@ -36,6 +36,8 @@ const char* kUsage =
     "  options: [--sensor NAME | --sensors A,B,...] [--frames N] [--voxel M] [--volume N] [--threads N] [--no-walls] [--min-score S]\n"
     "           [--icp-iterations N] (per hypothesis, default 12)\n"
     "           [--max-incidence DEG] (model surface seen more obliquely is not expected in the scene, default 75)\n"
+    "           [--no-rest-poses] (no second round of rest-pose hypotheses: parts on the floor on a stable face,\n"
+    "           x, y and yaw voted from heights above the floor, on the surface the first round left unexplained)\n"
     "           [--scene-out FILE.ply] (the scene after bin removal, for inspection)\n"
     "           [--bin FILE.toml] (the bin's floor pose and inner size from configuration instead of detection;\n"
     "           [bin] pose = [tx, ty, tz, qx, qy, qz, qw] (T_world_bin, z up, origin at the inner floor's centre),\n"
@@ -94,7 +96,7 @@ int cmd_localize(int argc, char** argv) {
   Args args;
   std::string err;
   if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "config", "seg-smooth", "seg-concave", "seg-radius", "seg-colour"},
-                  {"segments", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame"}, err) ||
+                  {"segments", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame", "no-rest-poses"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
     return 2;
@@ -145,6 +147,7 @@ int cmd_localize(int argc, char** argv) {
     return 2;
   }
   params.detect_walls = !args.has("no-walls");
+  params.rest_poses = !args.has("no-rest-poses");
   params.max_per_model = max_results;
 
   BinGeometry bin_config;
