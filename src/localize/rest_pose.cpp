@@ -128,7 +128,9 @@ float Localizer::rest_coverage(int m, const Pose& T, const LocalizeParams& param
     const int32_t j = nearest(q, r, d2);
     near += j >= 0 && b_.labels[j] == 0;
   }
-  return facing ? float(near) * float(near) / float(facing) : 0.0f;
+  // As plausible(): far below the final score threshold, ICP cannot rescue the pose.
+  if (near < 4 || float(near) < 0.5f * params.min_score * float(facing)) return 0.0f;
+  return float(near) * float(near) / float(facing);
 }
 
 bool Localizer::prepare_rest_scene(const LocalizeParams& params) {

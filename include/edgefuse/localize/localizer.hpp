@@ -232,7 +232,8 @@ class Localizer {
   //! Votes x, y, yaw of model m on each resting face; queues the best peaks into verified[first..).
   std::size_t queue_rest_hypotheses(int m, const LocalizeParams& params, std::size_t first);
   static void rest_vote_job(void* self, std::size_t chunk);
-  //! Visible samples of model m at T with an unclaimed scene point near them: count x share.
+  //! Visible samples of model m at T with an unclaimed scene point near them: count x share (0 when
+  //! the share is too small for ICP + verification to accept the pose).
   float rest_coverage(int m, const Pose& T, const LocalizeParams& params) const;
   static constexpr int kRestHeightBins = 512;
   struct RestScene {
