@@ -216,15 +216,29 @@ void Localizer::rest_vote_job(void* self, std::size_t chunk) {
   B.col(0) = rs.a0;
   B.col(1) = rs.a1;
   B.col(2) = me.ctx_.up.normalized();
+  // Cells that received votes are listed (a quarter of the queue per chunk), so finding the peaks
+  // and clearing the grid cost as much as the votes, not the grid (most of it stays empty); when
+  // the list overflows, the whole grid is scanned (same peaks: ties go to the lower cell index).
+  const std::size_t cells = std::size_t(rs.w) * std::size_t(rs.h);
+  uint32_t* touched = me.b_.queue + chunk * (me.b_.scene_points_max / kVoteAccumulators);
+  const std::size_t touched_cap = me.b_.scene_points_max / kVoteAccumulators;
+  std::memset(acc, 0, sizeof(uint16_t) * cells);
+  int face = -1;
+  Mat3f Q = Mat3f::Identity();
+  float zmin = 0;
+  Vec3f c = Vec3f::Zero();
   for (std::size_t j = lo; j < hi; ++j) {
     const int f = int(j / std::size_t(rs.yaw_steps));
     const float yaw = 2.0f * ppf::kPi * float(j % std::size_t(rs.yaw_steps)) / float(rs.yaw_steps);
-    const Mat3f Q = rest_rotation(info.rest_down[f]);
-    float zmin = 1e30f;
-    for (uint32_t i = 0; i < info.dense_count; ++i) zmin = std::min(zmin, Q.row(2).dot(dense[i].p));
-    const Vec3f c = Q * info.centre_m;
+    if (f != face) {  // the resting face's frame: its lowest point on the floor
+      face = f;
+      Q = rest_rotation(info.rest_down[f]);
+      zmin = 1e30f;
+      for (uint32_t i = 0; i < info.dense_count; ++i) zmin = std::min(zmin, Q.row(2).dot(dense[i].p));
+      c = Q * info.centre_m;
+    }
     const float cy = std::cos(yaw), sy = std::sin(yaw);
-    std::memset(acc, 0, sizeof(uint16_t) * std::size_t(rs.w) * std::size_t(rs.h));
+    std::size_t nt = 0;
     for (uint32_t i = 0; i < info.dense_count; i += stride) {
       // Surface a sensor above the bin can see (facing up within the incidence limit), above the
       // floor band that bin removal took away.
@@ -243,26 +257,33 @@ void Localizer::rest_vote_job(void* self, std::size_t chunk) {
         const int gx = floor_int((o[0] - rx - rs.origin[0]) * inv_cell);
         const int gy = floor_int((o[1] - ry - rs.origin[1]) * inv_cell);
         if (gx < 0 || gy < 0 || gx >= rs.w || gy >= rs.h) continue;
-        uint16_t& v = acc[std::size_t(gy) * std::size_t(rs.w) + std::size_t(gx)];
+        const std::size_t cell = std::size_t(gy) * std::size_t(rs.w) + std::size_t(gx);
+        uint16_t& v = acc[cell];
+        if (v == 0 && nt++ < touched_cap) touched[nt - 1] = uint32_t(cell);
         if (v < 65535) ++v;
       }
     }
+    const bool listed = nt <= touched_cap;
     // The strongest cells (the second at least 3 cells from the first); the candidate's votes are
     // its 3 x 3 neighbourhood, its position their weighted centre.
     int px[kPeaksPerJob] = {-1, -1}, py[kPeaksPerJob] = {-1, -1};
     for (int k = 0; k < kPeaksPerJob; ++k) {
       uint16_t best = 0;
-      for (int y = 0; y < rs.h; ++y)
-        for (int x = 0; x < rs.w; ++x) {
-          const uint16_t v = acc[std::size_t(y) * std::size_t(rs.w) + std::size_t(x)];
-          if (v <= best) continue;
-          bool near = false;
-          for (int p = 0; p < k && !near; ++p) near = std::abs(x - px[p]) <= 3 && std::abs(y - py[p]) <= 3;
-          if (near) continue;
-          best = v;
-          px[k] = x;
-          py[k] = y;
-        }
+      std::size_t best_cell = cells;
+      const std::size_t n_scan = listed ? nt : cells;
+      for (std::size_t e = 0; e < n_scan; ++e) {
+        const std::size_t cell = listed ? touched[e] : e;
+        const uint16_t v = acc[cell];
+        if (v < best || v == 0 || (v == best && cell > best_cell)) continue;
+        const int x = int(cell % std::size_t(rs.w)), y = int(cell / std::size_t(rs.w));
+        bool near = false;
+        for (int p = 0; p < k && !near; ++p) near = std::abs(x - px[p]) <= 3 && std::abs(y - py[p]) <= 3;
+        if (near) continue;
+        best = v;
+        best_cell = cell;
+        px[k] = x;
+        py[k] = y;
+      }
       PoseCandidate& out = me.b_.candidates[kPeaksPerJob * j + std::size_t(k)];
       out.votes = 0;
       if (best < 3) continue;
@@ -288,6 +309,10 @@ void Localizer::rest_vote_job(void* self, std::size_t chunk) {
       out.votes = sw;
       out.model = m;
     }
+    if (listed)
+      for (std::size_t e = 0; e < nt; ++e) acc[touched[e]] = 0;
+    else
+      std::memset(acc, 0, sizeof(uint16_t) * cells);
   }
 }
 
