@@ -182,9 +182,9 @@ TEST(LocalizeRest, FindsAnUprightBracketFromItsEdgeAndFlange) {
   CHECK(loc.init(buffers()) == Status::kOk);
   LocalizeParams params;
   add_bracket(loc, params);
-  // Standing on the flange back: model -x down (90 deg about y), then a yaw of 40 deg.
+  // Standing on the flange back: model -x down (90 deg about y), then a yaw of 45 deg.
   Pose truth;
-  truth.R = (Eigen::AngleAxisf(0.7f, Vec3f::UnitZ()) * Eigen::AngleAxisf(-1.5707963f, Vec3f::UnitY())).toRotationMatrix();
+  truth.R = (Eigen::AngleAxisf(0.785f, Vec3f::UnitZ()) * Eigen::AngleAxisf(-1.5707963f, Vec3f::UnitY())).toRotationMatrix();
   truth.t = Vec3f(0.02f, -0.03f, 0.040f);
   Scene scene;
   scene.add_plane(Vec3f(0, 0, 1), 0.0f);
