@@ -74,7 +74,7 @@ struct LocalizeParams {
   bool rest_poses = true;          //!< run the second round (needs a floor: bin detected or configured)
   float rest_cell_m = 0.003f;      //!< translation vote cell and scene sampling step
   float rest_height_tol_m = 0.003f;  //!< model and scene point heights match within this
-  int rest_yaw_steps = 36;         //!< yaw resolution (36: 10 deg; ICP takes the rest: same bin_rig_a poses as 72, 13 ms less)
+  int rest_yaw_steps = 36;         //!< yaw resolution (36: 10 deg, ICP takes the rest: on bin_rig_a the same poses as 72 within 0.02 mm, 13 ms less)
   int rest_hypotheses = 6;         //!< vote peaks (after clustering) refined and verified per model
   // bin / floor
   float floor_tol_m = 0.004f;      //!< points this close to the floor (or below it) are the bin
