@@ -336,11 +336,13 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
   int per_model[64] = {};
   accept_hypotheses(nverified, params, max_results, count, per_model);
   // Second round: rest-pose hypotheses on the surface no accepted pose explains (labels == 0).
-  if (params.rest_poses && ctx_.has_floor && count < std::size_t(max_results) && prepare_rest_scene(params)) {
-    std::size_t n2 = 0;
-    for (int m = 0; m < model_count_; ++m) n2 += queue_rest_hypotheses(m, params, n2);
-    n2 = refine_all(n2, params);
-    accept_hypotheses(n2, params, max_results, count, per_model);
+  if (params.rest_poses && ctx_.has_floor && count < std::size_t(max_results)) {
+    if (prepare_rest_scene(params)) {
+      std::size_t n2 = 0;
+      for (int m = 0; m < model_count_; ++m) n2 += queue_rest_hypotheses(m, params, n2);
+      n2 = refine_all(n2, params);
+      accept_hypotheses(n2, params, max_results, count, per_model);
+    }
     for (std::size_t i = 0; i < scene_count_; ++i)  // -1: left out of the round (prepare_rest_scene)
       if (b_.labels[i] < 0) b_.labels[i] = 0;
   }
