@@ -211,6 +211,7 @@ TEST(LocalizeRest, FindsAnUprightBracketFromItsEdgeAndFlange) {
   CHECK(loc.localize(params, kObjects, count) == Status::kOk);
   LONGS_EQUAL(0, alloc_count());
   LONGS_EQUAL(1, count);
+  for (std::size_t i = 0; i < loc.scene_count(); ++i) CHECK(loc.labels()[i] >= 0);  // claims only (no round marks)
   const LocalizedObject o = loc.results()[0];
   const float err = corner_error(o.T_world_object, truth);
   std::printf("\n  upright bracket with rest poses: corner error %.2f mm, score %.2f, free space %.3f\n", err * 1e3f,
