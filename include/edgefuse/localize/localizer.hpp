@@ -53,6 +53,7 @@ struct LocalizeBuffers {
 struct LocalizeParams {
   float ppf_step_rel = 0.04f;    //!< PPF sampling / distance step as a share of the diameter
   int ref_stride = 2;            //!< every n-th subsampled scene point is a reference point
+  int min_references = 300;      //!< ... but every one when that would give fewer references
   float cluster_trans_rel = 0.1f;  //!< pose clustering: translation within this share of the diameter
   float cluster_rot_deg = 15.0f;   //!< ... and rotation within this angle
   int icp_iterations = 12;        //!< per hypothesis (12: same bin_rig_a median error as 20, 8 is worse)
@@ -260,7 +261,7 @@ class Localizer {
   ParallelFor parallel_;
   const LocalizeParams* job_params_ = nullptr;  //!< of the running refine_job / vote_job batch
   int job_model_ = 0;            //!< vote_job: model, subsampled scene size, references, first slot
-  std::size_t job_ns_ = 0, job_refs_ = 0, job_first_ = 0;
+  std::size_t job_ns_ = 0, job_refs_ = 0, job_first_ = 0, job_stride_ = 1;
   static void refine_job(void* self, std::size_t k);
 };
 
