@@ -214,6 +214,51 @@ void Localizer::sort_picking_order(std::size_t count) const {
   });
 }
 
+std::size_t Localizer::refine_all(std::size_t n, const LocalizeParams& params) {
+  // Independent, read-only on the scene: any thread count gives the same results; the accepted
+  // ones are kept in queue order.
+  job_params_ = &params;
+  if (parallel_.run) parallel_.run(parallel_.runner, n, &Localizer::refine_job, this);
+  else
+    for (std::size_t k = 0; k < n; ++k) refine_job(this, k);
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < n; ++k)
+    if (b_.verified[k].model >= 0) b_.verified[kept++] = b_.verified[k];
+  return kept;
+}
+
+void Localizer::accept_hypotheses(std::size_t nverified, const LocalizeParams& params, int max_results,
+                                  std::size_t& count, int* per_model) const {
+  // Best first (explained surface x supported share); a hypothesis whose support is mostly claimed
+  // by a better one is a duplicate (or a symmetric twin) or a conflicting explanation. The explained
+  // surface is an area (supported samples x the area one verification sample stands for): counted
+  // in samples, a small part fitted onto a large one's surface (a bracket on the can) outranked it,
+  // as every model is verified with about the same number of samples whatever its size.
+  auto sample_area = [this](int m) {
+    const ModelInfo& info = b_.models[m];
+    const uint32_t stride = info.dense_count > kIcpPoints ? (info.dense_count + kIcpPoints - 1) / kIcpPoints : 1;
+    return float(stride) * info.dense_step_m * info.dense_step_m;
+  };
+  std::sort(b_.verified, b_.verified + nverified, [&sample_area](const LocalizedObject& a, const LocalizedObject& b) {
+    const float qa = float(a.support) * sample_area(a.model) * a.score,
+                qb = float(b.support) * sample_area(b.model) * b.score;
+    if (qa != qb) return qa > qb;
+    if (a.model != b.model) return a.model < b.model;
+    return pose_less(a.T_world_object, b.T_world_object);
+  });
+  for (std::size_t k = 0; k < nverified && count < std::size_t(max_results); ++k) {
+    const LocalizedObject& h = b_.verified[k];
+    if (h.model < 64 && per_model[h.model] >= params.max_per_model) continue;
+    LocalizedObject tmp;
+    float overlap = 0;
+    verify(h.model, h.T_world_object, params, tmp, -1, &overlap);
+    if (overlap > params.max_overlap) continue;
+    claim(h.model, h.T_world_object, params, int32_t(count) + 1);
+    b_.results[count++] = h;
+    if (h.model < 64) ++per_model[h.model];
+  }
+}
+
 void Localizer::refine_job(void* self, std::size_t k) {
   const Localizer& me = *static_cast<const Localizer*>(self);
   const LocalizeParams& params = *me.job_params_;
@@ -286,45 +331,20 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
       }
     }
   }
-  // Refine + verify every queued hypothesis (independent, read-only on the scene: any thread
-  // count gives the same results), then keep the accepted ones in queue order.
-  job_params_ = &params;
-  if (parallel_.run) parallel_.run(parallel_.runner, nverified, &Localizer::refine_job, this);
-  else
-    for (std::size_t k = 0; k < nverified; ++k) refine_job(this, k);
-  std::size_t kept = 0;
-  for (std::size_t k = 0; k < nverified; ++k)
-    if (b_.verified[k].model >= 0) b_.verified[kept++] = b_.verified[k];
-  nverified = kept;
-  // Best first (explained surface x supported share); a hypothesis whose support is mostly claimed
-  // by a better one is a duplicate (or a symmetric twin) or a conflicting explanation. The explained
-  // surface is an area (supported samples x the area one verification sample stands for): counted
-  // in samples, a small part fitted onto a large one's surface (a bracket on the can) outranked it,
-  // as every model is verified with about the same number of samples whatever its size.
-  auto sample_area = [this](int m) {
-    const ModelInfo& info = b_.models[m];
-    const uint32_t stride = info.dense_count > kIcpPoints ? (info.dense_count + kIcpPoints - 1) / kIcpPoints : 1;
-    return float(stride) * info.dense_step_m * info.dense_step_m;
-  };
-  std::sort(b_.verified, b_.verified + nverified, [&sample_area](const LocalizedObject& a, const LocalizedObject& b) {
-    const float qa = float(a.support) * sample_area(a.model) * a.score,
-                qb = float(b.support) * sample_area(b.model) * b.score;
-    if (qa != qb) return qa > qb;
-    if (a.model != b.model) return a.model < b.model;
-    return pose_less(a.T_world_object, b.T_world_object);
-  });
+  nverified = refine_all(nverified, params);
   for (std::size_t i = 0; i < scene_count_; ++i) b_.labels[i] = 0;  // now: claims of accepted poses
   int per_model[64] = {};
-  for (std::size_t k = 0; k < nverified && count < std::size_t(max_results); ++k) {
-    const LocalizedObject& h = b_.verified[k];
-    if (h.model < 64 && per_model[h.model] >= params.max_per_model) continue;
-    LocalizedObject tmp;
-    float overlap = 0;
-    verify(h.model, h.T_world_object, params, tmp, -1, &overlap);
-    if (overlap > params.max_overlap) continue;
-    claim(h.model, h.T_world_object, params, int32_t(count) + 1);
-    b_.results[count++] = h;
-    if (h.model < 64) ++per_model[h.model];
+  accept_hypotheses(nverified, params, max_results, count, per_model);
+  // Second round: rest-pose hypotheses on the surface no accepted pose explains (labels == 0).
+  if (params.rest_poses && ctx_.has_floor && count < std::size_t(max_results)) {
+    if (prepare_rest_scene(params)) {
+      std::size_t n2 = 0;
+      for (int m = 0; m < model_count_; ++m) n2 += queue_rest_hypotheses(m, params, n2);
+      n2 = refine_all(n2, params);
+      accept_hypotheses(n2, params, max_results, count, per_model);
+    }
+    for (std::size_t i = 0; i < scene_count_; ++i)  // -1: left out of the round (prepare_rest_scene)
+      if (b_.labels[i] < 0) b_.labels[i] = 0;
   }
   sort_picking_order(count);
   return Status::kOk;

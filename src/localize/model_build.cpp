@@ -139,6 +139,7 @@ Status Localizer::finish_model(const char* name, std::size_t dense_count, const 
   info.ppf_step_m = params.ppf_step_rel * info.diameter_m;
   const Status s = build_ppf_table(m, params);
   if (s != Status::kOk) return s;
+  find_rest_faces(m);
   model_index = m;
   ++model_count_;
   return Status::kOk;

@@ -62,18 +62,23 @@ bool Localizer::vote_reference(int m, std::size_t r, std::size_t ns, uint16_t* v
 
 void Localizer::vote_job(void* self, std::size_t chunk) {
   const Localizer& me = *static_cast<const Localizer*>(self);
-  const int stride = me.job_params_->ref_stride > 0 ? me.job_params_->ref_stride : 1;
+  const std::size_t stride = me.job_stride_;
   const std::size_t lo = chunk * me.job_refs_ / kVoteAccumulators, hi = (chunk + 1) * me.job_refs_ / kVoteAccumulators;
   uint16_t* votes = me.b_.votes + chunk * std::size_t(me.b_.ppf_points_max) * kPpfAngleBins;
   for (std::size_t j = lo; j < hi; ++j) {
     PoseCandidate& c = me.b_.candidates[me.job_first_ + j];
-    if (!me.vote_reference(me.job_model_, j * std::size_t(stride), me.job_ns_, votes, c)) c.votes = 0;  // no peak
+    if (!me.vote_reference(me.job_model_, j * stride, me.job_ns_, votes, c)) c.votes = 0;  // no peak
   }
 }
 
 std::size_t Localizer::vote_model(int m, const LocalizeParams& params, std::size_t first) {
   const std::size_t ns = subsample_scene(b_.models[m].ppf_step_m);
-  const std::size_t stride = params.ref_stride > 0 ? std::size_t(params.ref_stride) : 1;
+  std::size_t stride = params.ref_stride > 0 ? std::size_t(params.ref_stride) : 1;
+  // A large model's coarse step leaves few scene samples (bin_rig_a's can: ~130 at 25 mm): every
+  // one of them is then a reference, which costs little and keeps its pose from hanging on a
+  // handful of votes (in a sparser, tracked map the can got no usable candidate with every 2nd).
+  if (stride > 1 && ns / stride < std::size_t(params.min_references)) stride = 1;
+  job_stride_ = stride;
   std::size_t refs = (ns + stride - 1) / stride;
   if (first >= b_.hypotheses_max) return 0;
   if (refs > b_.hypotheses_max - first) refs = b_.hypotheses_max - first;  // one slot per reference

@@ -123,6 +123,30 @@ void Localizer::for_each_within(const Vec3f& q, float radius_m, int32_t label) c
       }
 }
 
+std::size_t Localizer::grow_component(std::size_t seed, float radius_m, uint32_t* visited, std::size_t tail) const {
+  const float r2 = radius_m * radius_m;
+  const int k = int(std::ceil(radius_m * grid_inv_));
+  const std::size_t start = tail;
+  visited[seed] = 1;
+  b_.queue[tail++] = uint32_t(seed);
+  for (std::size_t head = start; head < tail; ++head) {
+    const Vec3f p = b_.scene[b_.queue[head]].p;
+    const int32_t cx = floor_int(p.x() * grid_inv_), cy = floor_int(p.y() * grid_inv_), cz = floor_int(p.z() * grid_inv_);
+    for (int dz = -k; dz <= k; ++dz)
+      for (int dy = -k; dy <= k; ++dy)
+        for (int dx = -k; dx <= k; ++dx) {
+          const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
+          for (uint32_t e = b_.grid_buckets[h]; e < b_.grid_buckets[h + 1]; ++e) {
+            const uint32_t j = b_.grid_index[e];
+            if (visited[j] || (b_.scene[j].p - p).squaredNorm() > r2) continue;
+            visited[j] = 1;
+            b_.queue[tail++] = j;
+          }
+        }
+  }
+  return tail;
+}
+
 std::size_t Localizer::subsample_scene(float step_m) {
   KeyIndex* keys = reinterpret_cast<KeyIndex*>(b_.scratch);
   const float inv = 1.0f / step_m;

@@ -36,6 +36,8 @@ const char* kUsage =
     "  options: [--sensor NAME | --sensors A,B,...] [--frames N] [--voxel M] [--volume N] [--threads N] [--no-walls] [--min-score S]\n"
     "           [--icp-iterations N] (per hypothesis, default 12)\n"
     "           [--max-incidence DEG] (model surface seen more obliquely is not expected in the scene, default 75)\n"
+    "           [--no-rest-poses] (no second round of rest-pose hypotheses: parts on the floor on a stable face,\n"
+    "           x, y and yaw voted from heights above the floor, on the surface the first round left unexplained)\n"
     "           [--scene-out FILE.ply] (the scene after bin removal, for inspection)\n"
     "           [--bin FILE.toml] (the bin's floor pose and inner size from configuration instead of detection;\n"
     "           [bin] pose = [tx, ty, tz, qx, qy, qz, qw] (T_world_bin, z up, origin at the inner floor's centre),\n"
@@ -96,7 +98,7 @@ int cmd_localize(int argc, char** argv) {
   Args args;
   std::string err;
   if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "config", "seg-smooth", "seg-concave", "seg-radius", "seg-colour", "seg-crease", "seg-crease-radius", "seg-crease-concave", "seg-crease-pairs", "seg-crease-share"},
-                  {"segments", "seg-keep-small", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame"}, err) ||
+                  {"segments", "seg-keep-small", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame", "no-rest-poses"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
     return 2;
@@ -153,6 +155,7 @@ int cmd_localize(int argc, char** argv) {
     return 2;
   }
   params.detect_walls = !args.has("no-walls");
+  params.rest_poses = !args.has("no-rest-poses");
   params.max_per_model = max_results;
 
   BinGeometry bin_config;
@@ -183,6 +186,10 @@ int cmd_localize(int argc, char** argv) {
     const ModelInfo& mi = loc.model(index);
     std::printf("model %d: %s, diameter %.1f mm, %u dense samples, %u PPF samples (step %.1f mm), %u table entries\n",
                 index, mi.name, mi.diameter_m * 1e3, mi.dense_count, mi.ppf_count, mi.ppf_step_m * 1e3, mi.entry_count);
+    std::printf("  %d resting faces (down, object frame):", mi.rest_count);
+    for (int k = 0; k < mi.rest_count; ++k)
+      std::printf(" (%.2f %.2f %.2f)", mi.rest_down[k].x(), mi.rest_down[k].y(), mi.rest_down[k].z());
+    std::printf("\n");
   }
 
   // Start-up: hypothesis refinement / verification run over --threads workers (same results for any count).

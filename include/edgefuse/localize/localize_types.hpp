@@ -33,6 +33,9 @@ inline constexpr int kClustersPerModel = 32;      //!< pose clusters refined and
 //! PPF vote accumulators (the references are voted in this many chunks, one accumulator each, over
 //! the caller's threads; a fixed count, so the chunking and the results do not depend on threads).
 inline constexpr int kVoteAccumulators = 4;
+//! Stable resting faces kept per model (bin-picking prior: a part lying on the bin floor rests on
+//! one of them; hypotheses for such parts come from a 3-DOF search, see rest_pose.cpp).
+inline constexpr int kRestFacesMax = 8;
 
 //! One entry of a model's point pair feature table: the quantised feature (for collision checks),
 //! the model reference point and its angle alpha_m (quantised to int16 over [-pi, pi)).
@@ -53,6 +56,8 @@ struct ModelInfo {
   uint32_t dense_count = 0;  //!< dense samples (ICP, verification)
   uint32_t ppf_count = 0;    //!< sparse samples (PPF table)
   uint32_t entry_count = 0;  //!< PPF table entries
+  int rest_count = 0;        //!< stable resting faces found at start-up (largest support first)
+  Vec3f rest_down[kRestFacesMax];  //!< per resting face: the unit direction (object frame) that points at the floor
 };
 
 //! A pose hypothesis from one scene reference point's vote peak.
