@@ -288,7 +288,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
   // Voxels closer than a voxel to the sensor plane are not projected (division by ~0).
   const Real near_z = job.voxel;
   const bool has_trust = !job.frame.trust.empty();
-  const LaneCamera<Real> cam = {job.fx, job.fy, job.cx, job.cy, job.width, job.height};
+  const LaneCamera<Real> cam = {job.fx, job.fy, job.cx, job.cy, job.width, job.height, float(job.width), float(job.height)};
 
   // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
   // span: from the brick's first to its last voxel centre along each axis.
@@ -348,8 +348,9 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
           RowProjection<Real> rp;
           unsigned live = project_row(cam, py, step[0], near_z, rp);
           for (int r = 0; r < 3; ++r) py[r] += step[1][r];
-          for (; live != 0; live &= live - 1) {
-            const int lx = __builtin_ctz(live);
+#pragma GCC unroll 4
+          for (int lx = 0; lx < kRowLanes; ++lx) {
+            if (((live >> lx) & 1u) == 0) continue;
             const Real pu = rp.pu[lx], pv = rp.pv[lx], vz = rp.z[lx];
             const int iu = rp.iu[lx], iv = rp.iv[lx];
             // Cheap exits on the nearest pixel before interpolating: no data; certainly occluded

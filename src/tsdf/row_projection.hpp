@@ -36,6 +36,7 @@ template <class Real>
 struct LaneCamera {
   Real fx, fy, cx, cy;  //!< focal lengths and principal point in pixels
   int width, height;    //!< image size in pixels
+  float width_f, height_f;  //!< the same as floats (exact)
 };
 
 namespace lanes_detail {
@@ -57,17 +58,23 @@ inline unsigned mask_of(I4 m) {
 inline unsigned project_row(const LaneCamera<float>& cam, const float p0[3], const float s[3], float near_z,
                             RowProjection<float>& out) {
   using namespace lanes_detail;
-  const float x1 = p0[0] + s[0], x2 = x1 + s[0], x3 = x2 + s[0];
-  const float y1 = p0[1] + s[1], y2 = y1 + s[1], y3 = y2 + s[1];
-  const float z1 = p0[2] + s[2], z2 = z1 + s[2], z3 = z2 + s[2];
-  const F4 x = {p0[0], x1, x2, x3}, y = {p0[1], y1, y2, y3}, z = {p0[2], z1, z2, z3};
+  // Lane k = p0 + s added k times, as a chain of vector additions that adds s (or 0) per lane:
+  // the same roundings as p, p + s, (p + s) + s, ... (p0 + 0 = p0; a -0 turning +0 projects alike).
+  const F4 m1 = {0.0f, 1.0f, 1.0f, 1.0f}, m2 = {0.0f, 0.0f, 1.0f, 1.0f}, m3 = {0.0f, 0.0f, 0.0f, 1.0f};
+  F4 x = p0[0] + m1 * s[0], y = p0[1] + m1 * s[1], z = p0[2] + m1 * s[2];
+  x += m2 * s[0];
+  y += m2 * s[1];
+  z += m2 * s[2];
+  x += m3 * s[0];
+  y += m3 * s[1];
+  z += m3 * s[2];
   const F4 inv_z = 1.0f / z;  // lanes behind the near plane are masked below
   const F4 pu = cam.fx * (x * inv_z) + cam.cx;
   const F4 pv = cam.fy * (y * inv_z) + cam.cy;
   // pixel_of on each lane: index = int(x + 0.5) when 0 <= x + 0.5 < size (NaN fails).
   const F4 su = pu + 0.5f, sv = pv + 0.5f;
   const F4 zero = {};
-  const I4 live = (z >= near_z) & (su >= 0.0f) & (su < float(cam.width)) & (sv >= 0.0f) & (sv < float(cam.height));
+  const I4 live = (z >= near_z) & (su >= 0.0f) & (su < cam.width_f) & (sv >= 0.0f) & (sv < cam.height_f);
   // Dead lanes are converted from 0: their coordinates may be out of int range.
   const I4 iu = __builtin_convertvector(live ? su : zero, I4);
   const I4 iv = __builtin_convertvector(live ? sv : zero, I4);
