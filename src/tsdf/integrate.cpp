@@ -89,6 +89,22 @@ void build_depth_tiles(const ImageView<const uint16_t>& depth, DepthTile* tiles)
       t.max_raw = uint16_t(hi);
       t.all_valid = all ? 1 : 0;
     }
+  for (int j = 0; j + 1 < ty; ++j)
+    for (int i = 0; i + 1 < tx; ++i) {
+      DepthTile& t = tiles[std::size_t(j) * tx + i];
+      const DepthTile* quad[4] = {&t, &t + 1, &t + tx, &t + tx + 1};
+      uint32_t lo = 0xffff, hi = 0;
+      bool all = true;
+      for (const DepthTile* n : quad) {
+        all = all && n->all_valid;
+        if (n->max_raw == 0) continue;
+        lo = n->min_raw < lo ? n->min_raw : lo;
+        hi = n->max_raw > hi ? n->max_raw : hi;
+      }
+      t.min_raw2 = hi == 0 ? 0 : uint16_t(lo);
+      t.max_raw2 = uint16_t(hi);
+      t.all_valid2 = all ? 1 : 0;
+    }
   // Neighbourhood minimum: the 2x2 pixels a voxel interpolates from lie within the 3x3 tiles
   // around the tile of its nearest pixel.
   for (int j = 0; j < ty; ++j)
@@ -165,14 +181,35 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const LaneCamera<Real>&
       }
     }
   } else {
-    for (int j = b0 / FrameScratch::kTile; j <= b1 / FrameScratch::kTile; ++j)
-      for (int i = a0 / FrameScratch::kTile; i <= a1 / FrameScratch::kTile; ++i) {
-        const DepthTile& t = job.tiles[std::size_t(j) * job.tiles_x + i];
-        all = all && t.all_valid;
-        if (t.max_raw == 0) continue;
-        lo = t.min_raw < lo ? t.min_raw : lo;
-        hi = t.max_raw > hi ? t.max_raw : hi;
+    const int i0 = a0 / FrameScratch::kTile, i1 = a1 / FrameScratch::kTile;
+    const int j0 = b0 / FrameScratch::kTile, j1 = b1 / FrameScratch::kTile;
+    if (i1 > i0 && j1 > j0) {
+      // 2x2-tile windows from i0 in steps of 2, the last one moved back to end at i1 (likewise
+      // for j): the same tiles as the loop below, some read twice.
+      for (int j = j0;; j += 2) {
+        const int jj = j < j1 ? j : j1 - 1;
+        for (int i = i0;; i += 2) {
+          const int ii = i < i1 ? i : i1 - 1;
+          const DepthTile& t = job.tiles[std::size_t(jj) * job.tiles_x + ii];
+          all = all && t.all_valid2;
+          if (t.max_raw2 != 0) {
+            lo = t.min_raw2 < lo ? t.min_raw2 : lo;
+            hi = t.max_raw2 > hi ? t.max_raw2 : hi;
+          }
+          if (ii + 1 >= i1) break;
+        }
+        if (jj + 1 >= j1) break;
       }
+    } else {
+      for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i) {
+          const DepthTile& t = job.tiles[std::size_t(j) * job.tiles_x + i];
+          all = all && t.all_valid;
+          if (t.max_raw == 0) continue;
+          lo = t.min_raw < lo ? t.min_raw : lo;
+          hi = t.max_raw > hi ? t.max_raw : hi;
+        }
+    }
   }
   if (hi == 0) return BrickClass::kSkip;  // no measurement under the brick
   const Real z_meas_lo = job.depth.metres(uint16_t(lo)), z_meas_hi = job.depth.metres(uint16_t(hi));
