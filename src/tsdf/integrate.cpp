@@ -325,6 +325,17 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
   // Voxels closer than a voxel to the sensor plane are not projected (division by ~0).
   const Real near_z = job.voxel;
   const bool has_trust = !job.frame.trust.empty();
+  // Per-frame constants of the voxel loop held in locals: the voxel stores go through uint8_t
+  // pointers, which may alias `job`, so its members would be reloaded after every store.
+  const bool colour_only = job.colour_only;
+  const Real jump = job.jump, minus_rho = zero - job.rho, trunc = job.trunc, min_z = job.min_z, max_z = job.max_z;
+  const DepthTile* const tiles = job.tiles;
+  const std::size_t tiles_x = std::size_t(job.tiles_x);
+  const Real eps = job.eps, minus_eps = zero - job.eps, band_to_index = job.band_to_index, inv_trunc = job.inv_trunc;
+  const Real colour_band = job.colour_band, minus_colour_band = zero - job.colour_band;
+  const uint32_t trust_q8 = job.trust_q8;
+  const ImageView<const Real> ray_norms = job.ray_norms;
+  const ImageView<const Rgb8> colour_px = job.frame.colour;
   const LaneCamera<Real> cam = {job.fx, job.fy, job.cx, job.cy, job.width, job.height, float(job.width), float(job.height)};
 
   // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
@@ -396,12 +407,12 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
             const uint16_t nearest = job.frame.depth.at(iu, iv);
             if (nearest == 0) continue;
             const Real z_near = job.depth.metres(nearest);
-            if (z_near + job.jump - vz < zero - job.rho) continue;
+            if (z_near + jump - vz < minus_rho) continue;
             const std::size_t idx = row + std::size_t(lx);
-            const DepthTile& tile = job.tiles[std::size_t(iv >> 3) * job.tiles_x + std::size_t(iu >> 3)];
-            if (job.colour_only && (colour == nullptr || weight[idx] == 0)) continue;
-            if (job.depth.metres(tile.near_raw) - vz >= job.trunc && z_near <= job.max_z && z_near >= job.min_z) {
-              if (job.colour_only) continue;
+            const DepthTile& tile = tiles[std::size_t(iv >> 3) * tiles_x + std::size_t(iu >> 3)];
+            if (colour_only && (colour == nullptr || weight[idx] == 0)) continue;
+            if (job.depth.metres(tile.near_raw) - vz >= trunc && z_near <= max_z && z_near >= min_z) {
+              if (colour_only) continue;
               const int32_t old_w = weight[idx];
               if (old_w == max_weight && tsdf[idx] == kTsdfMax) continue;
               const int32_t value = old_w == 0 ? kTsdfMax : blend(tsdf[idx], old_w, kTsdfMax, full_weight);
@@ -413,26 +424,26 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
             }
             Real z;
             if (!depth_at(job, pu, pv, iu, iv, z)) continue;
-            if (z < job.min_z || z > job.max_z) continue;
+            if (z < min_z || z > max_z) continue;
             // Eq. (1): (measured range) - (voxel range) along the ray = (z - p.z) |ray|.
-            const Real d = (z - vz) * job.ray_norms.at(iu, iv);
-            if (d <= zero - job.rho) continue;
+            const Real d = (z - vz) * ray_norms.at(iu, iv);
+            if (d <= minus_rho) continue;
             // Eq. (2) from the table: full weight in front of -eps.
             int32_t w = full_weight;
-            if (d < zero - job.eps) {
-              int32_t k = floor_int((zero - d - job.eps) * job.band_to_index);
+            if (d < minus_eps) {
+              int32_t k = floor_int((zero - d - eps) * band_to_index);
               k = k < 0 ? 0 : (k >= WeightTable::kSize ? WeightTable::kSize - 1 : k);
-              w = int32_t((shape[k] * job.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
+              w = int32_t((shape[k] * trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
               if (w == 0) continue;
             }
             if (has_trust) {
               w = voxel_update::scale_by_trust(w, job.frame.trust.at(iu, iv), weight[idx]);
               if (w == 0) continue;
             }
-            int32_t q = d >= job.trunc ? kTsdfMax : round_int(d * job.inv_trunc * q_scale);
+            int32_t q = d >= trunc ? kTsdfMax : round_int(d * inv_trunc * q_scale);
             q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
 
-            if (!job.colour_only) {
+            if (!colour_only) {
               const int32_t old_w = weight[idx];
               const int32_t value = old_w == 0 ? q : blend(tsdf[idx], old_w, q, w);
               tsdf[idx] = int16_t(value);
@@ -441,8 +452,8 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               surface = surface || (value < kTsdfMax && value > -kTsdfMax);
             }
 
-            if (colour != nullptr && d < job.colour_band && d > zero - job.colour_band) {
-              const Rgb8 c = job.frame.colour.at(iu, iv);
+            if (colour != nullptr && d < colour_band && d > minus_colour_band) {
+              const Rgb8 c = colour_px.at(iu, iv);
               const int32_t cw = colour_weight[idx];
               Rgb8& v = colour[idx];
               if (cw == 0) {
