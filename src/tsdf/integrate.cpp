@@ -22,13 +22,13 @@ inline uint32_t max4(uint32_t a, uint32_t b, uint32_t c, uint32_t d) {
   return ab > cd ? ab : cd;
 }
 
-// Measured z-depth at the projection (pu, pv) of a voxel; (iu, iv) is the nearest pixel.
+// Measured z-depth at the projection (pu, pv) of a voxel; `nearest` is the raw depth of the
+// nearest pixel.
 // Bilinear over the 4 surrounding pixels when all are valid and within a depth jump of each other;
 // the nearest pixel when some are missing (or at the border); false at a discontinuity or no data.
 template <class Real>
-bool depth_at(const IntegrationJob<Real>& job, Real pu, Real pv, int iu, int iv, Real& z) {
+bool depth_at(const IntegrationJob<Real>& job, Real pu, Real pv, uint32_t nearest, Real& z) {
   const ImageView<const uint16_t>& img = job.frame.depth;
-  const uint32_t nearest = img.at(iu, iv);
   const int u0 = floor_int(pu), v0 = floor_int(pv);
   if (u0 >= 0 && v0 >= 0 && u0 + 1 < job.width && v0 + 1 < job.height) {
     const uint16_t* r0 = img.row(v0) + u0;
@@ -409,9 +409,13 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
             const Real z_near = job.depth.metres(nearest);
             if (z_near + jump - vz < minus_rho) continue;
             const std::size_t idx = row + std::size_t(lx);
-            const DepthTile& tile = tiles[std::size_t(iv >> 3) * tiles_x + std::size_t(iu >> 3)];
             if (colour_only && (colour == nullptr || weight[idx] == 0)) continue;
-            if (job.depth.metres(tile.near_raw) - vz >= trunc && z_near <= max_z && z_near >= min_z) {
+            // The tile's neighbourhood minimum is at most the nearest pixel's depth, so a voxel less
+            // than trunc in front of its nearest pixel cannot pass the free-space test: the tile is
+            // read only for the others (same decisions, monotone roundings).
+            if (z_near - vz >= trunc &&
+                job.depth.metres(tiles[std::size_t(iv >> 3) * tiles_x + std::size_t(iu >> 3)].near_raw) - vz >= trunc &&
+                z_near <= max_z && z_near >= min_z) {
               if (colour_only) continue;
               const int32_t old_w = weight[idx];
               if (old_w == max_weight && tsdf[idx] == kTsdfMax) continue;
@@ -423,7 +427,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               continue;
             }
             Real z;
-            if (!depth_at(job, pu, pv, iu, iv, z)) continue;
+            if (!depth_at(job, pu, pv, nearest, z)) continue;
             if (z < min_z || z > max_z) continue;
             // Eq. (1): (measured range) - (voxel range) along the ray = (z - p.z) |ray|.
             const Real d = (z - vz) * ray_norms.at(iu, iv);
