@@ -4,6 +4,7 @@
 
 #include "kernel_math.hpp"
 #include "block_mask.hpp"
+#include "row_projection.hpp"
 #include "voxel_update.hpp"
 
 namespace edgefuse {
@@ -12,27 +13,33 @@ namespace {
 using voxel_update::blend;
 using voxel_update::cap_weight;
 
-// Measured z-depth at the projection (pu, pv) of a voxel; (iu, iv) is the nearest pixel.
+inline uint32_t min4(uint32_t a, uint32_t b, uint32_t c, uint32_t d) {
+  const uint32_t ab = a < b ? a : b, cd = c < d ? c : d;
+  return ab < cd ? ab : cd;
+}
+inline uint32_t max4(uint32_t a, uint32_t b, uint32_t c, uint32_t d) {
+  const uint32_t ab = a > b ? a : b, cd = c > d ? c : d;
+  return ab > cd ? ab : cd;
+}
+
+// Measured z-depth at the projection (pu, pv) of a voxel; `nearest` is the raw depth of the
+// nearest pixel.
 // Bilinear over the 4 surrounding pixels when all are valid and within a depth jump of each other;
 // the nearest pixel when some are missing (or at the border); false at a discontinuity or no data.
 template <class Real>
-bool depth_at(const IntegrationJob<Real>& job, Real pu, Real pv, int iu, int iv, Real& z) {
+bool depth_at(const IntegrationJob<Real>& job, Real pu, Real pv, uint32_t nearest, Real& z) {
   const ImageView<const uint16_t>& img = job.frame.depth;
-  const uint32_t nearest = img.at(iu, iv);
   const int u0 = floor_int(pu), v0 = floor_int(pv);
   if (u0 >= 0 && v0 >= 0 && u0 + 1 < job.width && v0 + 1 < job.height) {
     const uint16_t* r0 = img.row(v0) + u0;
     const uint16_t* r1 = img.row(v0 + 1) + u0;
     const uint32_t q[4] = {r0[0], r0[1], r1[0], r1[1]};
-    uint32_t lo = 0xffff, hi = 0;
-    int valid = 0;
-    for (uint32_t x : q)
-      if (x != 0) {
-        ++valid;
-        lo = x < lo ? x : lo;
-        hi = x > hi ? x : hi;
-      }
-    if (valid == 4 && hi - lo <= job.jump_raw) {
+    // Min / max without branches: 0 (no depth) is the smallest raw value, so min(q) != 0 says all
+    // four are valid; only then is the bilinear test decided (the common case). The valid minimum
+    // for the jump test below replaces missing pixels by the largest raw value.
+    const uint32_t hi = max4(q[0], q[1], q[2], q[3]);
+    const uint32_t lo_all = min4(q[0], q[1], q[2], q[3]);
+    if (lo_all != 0 && hi - lo_all <= job.jump_raw) {
       const Real fu = pu - real_from_int<Real>(u0), fv = pv - real_from_int<Real>(v0);
       const Real a = job.depth.metres(uint16_t(q[0])), b = job.depth.metres(uint16_t(q[1]));
       const Real c = job.depth.metres(uint16_t(q[2])), e = job.depth.metres(uint16_t(q[3]));
@@ -41,7 +48,11 @@ bool depth_at(const IntegrationJob<Real>& job, Real pu, Real pv, int iu, int iv,
       return true;
     }
     if (nearest == 0) return false;
-    if (valid > 0 && (hi > nearest + job.jump_raw || nearest > lo + job.jump_raw)) return false;
+    // The nearest pixel is one of the four, so at least one is valid here.
+    const uint32_t lo = lo_all != 0 ? lo_all
+                                    : min4(q[0] ? q[0] : 0xffffu, q[1] ? q[1] : 0xffffu, q[2] ? q[2] : 0xffffu,
+                                           q[3] ? q[3] : 0xffffu);
+    if (hi > nearest + job.jump_raw || nearest > lo + job.jump_raw) return false;
   } else if (nearest == 0) {
     return false;
   }
@@ -77,6 +88,22 @@ void build_depth_tiles(const ImageView<const uint16_t>& depth, DepthTile* tiles)
       t.min_raw = hi == 0 ? 0 : uint16_t(lo);
       t.max_raw = uint16_t(hi);
       t.all_valid = all ? 1 : 0;
+    }
+  for (int j = 0; j + 1 < ty; ++j)
+    for (int i = 0; i + 1 < tx; ++i) {
+      DepthTile& t = tiles[std::size_t(j) * tx + i];
+      const DepthTile* quad[4] = {&t, &t + 1, &t + tx, &t + tx + 1};
+      uint32_t lo = 0xffff, hi = 0;
+      bool all = true;
+      for (const DepthTile* n : quad) {
+        all = all && n->all_valid;
+        if (n->max_raw == 0) continue;
+        lo = n->min_raw < lo ? n->min_raw : lo;
+        hi = n->max_raw > hi ? n->max_raw : hi;
+      }
+      t.min_raw2 = hi == 0 ? 0 : uint16_t(lo);
+      t.max_raw2 = uint16_t(hi);
+      t.all_valid2 = all ? 1 : 0;
     }
   // Neighbourhood minimum: the 2x2 pixels a voxel interpolates from lie within the 3x3 tiles
   // around the tile of its nearest pixel.
@@ -120,29 +147,14 @@ inline void free_space_update(int16_t* tsdf, uint8_t* weight, std::size_t base, 
 // Classifies a box of voxels (a brick or a part of one) from its 8 corner voxel centres (camera
 // frame: c0 plus any sum of the span vectors) against the depth tiles.
 template <class Real>
-BrickClass classify_box(const IntegrationJob<Real>& job, const Real c0[3], const Real span[3][3], Real near_z,
-                        bool stop_early) {
-  const Real one = real_from_int<Real>(1);
-  Real z_lo = c0[2], z_hi = c0[2];
-  Real u_lo = real_from_int<Real>(1 << 20), u_hi = real_from_int<Real>(-(1 << 20));
-  Real v_lo = u_lo, v_hi = u_hi;
-  for (int k = 0; k < 8; ++k) {
-    Real p[3] = {c0[0], c0[1], c0[2]};
-    for (int a = 0; a < 3; ++a)
-      if (k & (1 << a))
-        for (int r = 0; r < 3; ++r) p[r] += span[a][r];
-    if (p[2] < near_z) return BrickClass::kVoxels;  // straddles the sensor plane: no bound
-    const Real inv_z = one / p[2];
-    const Real u = job.fx * (p[0] * inv_z) + job.cx, v = job.fy * (p[1] * inv_z) + job.cy;
-    z_lo = p[2] < z_lo ? p[2] : z_lo;
-    z_hi = p[2] > z_hi ? p[2] : z_hi;
-    u_lo = u < u_lo ? u : u_lo;
-    u_hi = u > u_hi ? u : u_hi;
-    v_lo = v < v_lo ? v : v_lo;
-    v_hi = v > v_hi ? v : v_hi;
-  }
+BrickClass classify_box(const IntegrationJob<Real>& job, const LaneCamera<Real>& cam, const Real c0[3],
+                        const Real span[3][3], Real near_z, bool stop_early) {
+  BoxBounds<Real> box;
+  if (!project_box(cam, c0, span, near_z, box)) return BrickClass::kVoxels;  // straddles the sensor plane: no bound
+  const Real z_lo = box.z_lo, z_hi = box.z_hi;
   // Pixels a voxel of the brick may read (bilinear reaches one pixel further).
-  int a0 = floor_int(u_lo) - 1, a1 = floor_int(u_hi) + 2, b0 = floor_int(v_lo) - 1, b1 = floor_int(v_hi) + 2;
+  int a0 = floor_int(box.u_lo) - 1, a1 = floor_int(box.u_hi) + 2, b0 = floor_int(box.v_lo) - 1,
+      b1 = floor_int(box.v_hi) + 2;
   if (a1 < 0 || b1 < 0 || a0 >= job.width || b0 >= job.height) return BrickClass::kSkip;
   const bool inside = a0 >= 0 && b0 >= 0 && a1 < job.width && b1 < job.height;
   a0 = a0 < 0 ? 0 : a0;
@@ -169,14 +181,35 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const Real c0[3], const
       }
     }
   } else {
-    for (int j = b0 / FrameScratch::kTile; j <= b1 / FrameScratch::kTile; ++j)
-      for (int i = a0 / FrameScratch::kTile; i <= a1 / FrameScratch::kTile; ++i) {
-        const DepthTile& t = job.tiles[std::size_t(j) * job.tiles_x + i];
-        all = all && t.all_valid;
-        if (t.max_raw == 0) continue;
-        lo = t.min_raw < lo ? t.min_raw : lo;
-        hi = t.max_raw > hi ? t.max_raw : hi;
+    const int i0 = a0 / FrameScratch::kTile, i1 = a1 / FrameScratch::kTile;
+    const int j0 = b0 / FrameScratch::kTile, j1 = b1 / FrameScratch::kTile;
+    if (i1 > i0 && j1 > j0) {
+      // 2x2-tile windows from i0 in steps of 2, the last one moved back to end at i1 (likewise
+      // for j): the same tiles as the loop below, some read twice.
+      for (int j = j0;; j += 2) {
+        const int jj = j < j1 ? j : j1 - 1;
+        for (int i = i0;; i += 2) {
+          const int ii = i < i1 ? i : i1 - 1;
+          const DepthTile& t = job.tiles[std::size_t(jj) * job.tiles_x + ii];
+          all = all && t.all_valid2;
+          if (t.max_raw2 != 0) {
+            lo = t.min_raw2 < lo ? t.min_raw2 : lo;
+            hi = t.max_raw2 > hi ? t.max_raw2 : hi;
+          }
+          if (ii + 1 >= i1) break;
+        }
+        if (jj + 1 >= j1) break;
       }
+    } else {
+      for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i) {
+          const DepthTile& t = job.tiles[std::size_t(j) * job.tiles_x + i];
+          all = all && t.all_valid;
+          if (t.max_raw == 0) continue;
+          lo = t.min_raw < lo ? t.min_raw : lo;
+          hi = t.max_raw > hi ? t.max_raw : hi;
+        }
+    }
   }
   if (hi == 0) return BrickClass::kSkip;  // no measurement under the brick
   const Real z_meas_lo = job.depth.metres(uint16_t(lo)), z_meas_hi = job.depth.metres(uint16_t(hi));
@@ -293,6 +326,18 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
   // Voxels closer than a voxel to the sensor plane are not projected (division by ~0).
   const Real near_z = job.voxel;
   const bool has_trust = !job.frame.trust.empty();
+  // Per-frame constants of the voxel loop held in locals: the voxel stores go through uint8_t
+  // pointers, which may alias `job`, so its members would be reloaded after every store.
+  const bool colour_only = job.colour_only;
+  const Real jump = job.jump, minus_rho = zero - job.rho, trunc = job.trunc, min_z = job.min_z, max_z = job.max_z;
+  const DepthTile* const tiles = job.tiles;
+  const std::size_t tiles_x = std::size_t(job.tiles_x);
+  const Real eps = job.eps, minus_eps = zero - job.eps, band_to_index = job.band_to_index, inv_trunc = job.inv_trunc;
+  const Real colour_band = job.colour_band, minus_colour_band = zero - job.colour_band;
+  const uint32_t trust_q8 = job.trust_q8;
+  const ImageView<const Real> ray_norms = job.ray_norms;
+  const ImageView<const Rgb8> colour_px = job.frame.colour;
+  const LaneCamera<Real> cam = {job.fx, job.fy, job.cx, job.cy, job.width, job.height, float(job.width), float(job.height)};
 
   // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
   // span: from the brick's first to its last voxel centre along each axis.
@@ -316,7 +361,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
     Real c0[3];
     for (int r = 0; r < 3; ++r) c0[r] = job.R[r * 3] * w0[0] + job.R[r * 3 + 1] * w0[1] + job.R[r * 3 + 2] * w0[2] + job.t[r];
 
-    const BrickClass cls = classify_box(job, c0, span, near_z, true);
+    const BrickClass cls = classify_box(job, cam, c0, span, near_z, true);
     if (cls == BrickClass::kSkip) continue;
     const std::size_t base = std::size_t(brick) * kBrickVoxels;
     bool surface = false, observed = false;
@@ -335,7 +380,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
       for (int r = 0; r < 3; ++r)
         cb[r] = c0[r] + step[0][r] * real_from_int<Real>(off[0]) + step[1][r] * real_from_int<Real>(off[1]) +
                 step[2][r] * real_from_int<Real>(off[2]);
-      const BrickClass sub = classify_box(job, cb, half_span, near_z, false);
+      const BrickClass sub = classify_box(job, cam, cb, half_span, near_z, false);
       if (sub == BrickClass::kSkip) continue;
       const int first = (off[2] << 6) | (off[1] << 3) | off[0];
       if (sub == BrickClass::kFreeSpace && job.colour_only) continue;
@@ -348,27 +393,31 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
       for (int lz = 0; lz < kHalf; ++lz) {
         Real py[3] = {pz[0], pz[1], pz[2]};
         for (int ly = 0; ly < kHalf; ++ly) {
-          Real p[3] = {py[0], py[1], py[2]};
           const std::size_t row = base + std::size_t(first + (lz << 6) + (ly << 3));
-          for (int lx = 0; lx < kHalf; ++lx, p[0] += step[0][0], p[1] += step[0][1], p[2] += step[0][2]) {
-            if (p[2] < near_z) continue;
-            const Real inv_z = real_from<Real>(1.0f) / p[2];
-            const Real pu = job.fx * (p[0] * inv_z) + job.cx;
-            const Real pv = job.fy * (p[1] * inv_z) + job.cy;
-            int iu, iv;
-            if (!pixel_of(pu, job.width, iu) || !pixel_of(pv, job.height, iv)) continue;
+          RowProjection<Real> rp;
+          unsigned live = project_row(cam, py, step[0], near_z, rp);
+          for (int r = 0; r < 3; ++r) py[r] += step[1][r];
+#pragma GCC unroll 4
+          for (int lx = 0; lx < kRowLanes; ++lx) {
+            if (((live >> lx) & 1u) == 0) continue;
+            const Real pu = rp.pu[lx], pv = rp.pv[lx], vz = rp.z[lx];
+            const int iu = rp.iu[lx], iv = rp.iv[lx];
             // Cheap exits on the nearest pixel before interpolating: no data; certainly occluded
             // (an interpolated depth is at most a depth jump beyond the nearest pixel's);
             // certainly free space (every pixel around is at least trunc beyond the voxel).
             const uint16_t nearest = job.frame.depth.at(iu, iv);
             if (nearest == 0) continue;
             const Real z_near = job.depth.metres(nearest);
-            if (z_near + job.jump - p[2] < zero - job.rho) continue;
+            if (z_near + jump - vz < minus_rho) continue;
             const std::size_t idx = row + std::size_t(lx);
-            const DepthTile& tile = job.tiles[std::size_t(iv >> 3) * job.tiles_x + std::size_t(iu >> 3)];
-            if (job.colour_only && (colour == nullptr || weight[idx] == 0)) continue;
-            if (job.depth.metres(tile.near_raw) - p[2] >= job.trunc && z_near <= job.max_z && z_near >= job.min_z) {
-              if (job.colour_only) continue;
+            if (colour_only && (colour == nullptr || weight[idx] == 0)) continue;
+            // The tile's neighbourhood minimum is at most the nearest pixel's depth, so a voxel less
+            // than trunc in front of its nearest pixel cannot pass the free-space test: the tile is
+            // read only for the others (same decisions, monotone roundings).
+            if (z_near - vz >= trunc &&
+                job.depth.metres(tiles[std::size_t(iv >> 3) * tiles_x + std::size_t(iu >> 3)].near_raw) - vz >= trunc &&
+                z_near <= max_z && z_near >= min_z) {
+              if (colour_only) continue;
               const int32_t old_w = weight[idx];
               if (old_w == max_weight && tsdf[idx] == kTsdfMax) continue;
               const int32_t value = old_w == 0 ? kTsdfMax : blend(tsdf[idx], old_w, kTsdfMax, full_weight);
@@ -379,27 +428,27 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               continue;
             }
             Real z;
-            if (!depth_at(job, pu, pv, iu, iv, z)) continue;
-            if (z < job.min_z || z > job.max_z) continue;
+            if (!depth_at(job, pu, pv, nearest, z)) continue;
+            if (z < min_z || z > max_z) continue;
             // Eq. (1): (measured range) - (voxel range) along the ray = (z - p.z) |ray|.
-            const Real d = (z - p[2]) * job.ray_norms.at(iu, iv);
-            if (d <= zero - job.rho) continue;
+            const Real d = (z - vz) * ray_norms.at(iu, iv);
+            if (d <= minus_rho) continue;
             // Eq. (2) from the table: full weight in front of -eps.
             int32_t w = full_weight;
-            if (d < zero - job.eps) {
-              int32_t k = floor_int((zero - d - job.eps) * job.band_to_index);
+            if (d < minus_eps) {
+              int32_t k = floor_int((zero - d - eps) * band_to_index);
               k = k < 0 ? 0 : (k >= WeightTable::kSize ? WeightTable::kSize - 1 : k);
-              w = int32_t((shape[k] * job.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
+              w = int32_t((shape[k] * trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
               if (w == 0) continue;
             }
             if (has_trust) {
               w = voxel_update::scale_by_trust(w, job.frame.trust.at(iu, iv), weight[idx]);
               if (w == 0) continue;
             }
-            int32_t q = d >= job.trunc ? kTsdfMax : round_int(d * job.inv_trunc * q_scale);
+            int32_t q = d >= trunc ? kTsdfMax : round_int(d * inv_trunc * q_scale);
             q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
 
-            if (!job.colour_only) {
+            if (!colour_only) {
               const int32_t old_w = weight[idx];
               const int32_t value = old_w == 0 ? q : blend(tsdf[idx], old_w, q, w);
               tsdf[idx] = int16_t(value);
@@ -408,8 +457,8 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               surface = surface || (value < kTsdfMax && value > -kTsdfMax);
             }
 
-            if (colour != nullptr && d < job.colour_band && d > zero - job.colour_band) {
-              const Rgb8 c = job.frame.colour.at(iu, iv);
+            if (colour != nullptr && d < colour_band && d > minus_colour_band) {
+              const Rgb8 c = colour_px.at(iu, iv);
               const int32_t cw = colour_weight[idx];
               Rgb8& v = colour[idx];
               if (cw == 0) {
@@ -422,7 +471,6 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               colour_weight[idx] = cap_weight(cw + w, max_weight);
             }
           }
-          for (int r = 0; r < 3; ++r) py[r] += step[1][r];
         }
         for (int r = 0; r < 3; ++r) pz[r] += step[2][r];
       }

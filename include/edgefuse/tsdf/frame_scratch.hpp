@@ -16,7 +16,12 @@ struct DepthTile {
   uint16_t max_raw = 0;     //!< largest valid raw depth
   uint16_t near_raw = 0;    //!< smallest valid raw depth of this tile and its 8 neighbours (0: none)
   uint8_t all_valid = 0;    //!< every pixel of the tile has a depth
-  uint8_t pad = 0;
+  //! The same three for the 2x2 tiles starting here (this tile, the next one to the right and the
+  //! two below; not set in the last tile row and column): a box's tile range is then covered by
+  //! a quarter as many reads (overlapping windows give the same minimum, maximum and "all").
+  uint8_t all_valid2 = 0;
+  uint16_t min_raw2 = 0;
+  uint16_t max_raw2 = 0;
 };
 
 struct FrameScratch {

@@ -16,7 +16,9 @@
 // Bricks are classified before their voxels are touched, with the min / max depth of the 8x8
 // pixel tiles they project onto (FrameScratch): entirely more than rho behind every measurement ->
 // skipped; entirely more than trunc in front of every measurement of fully valid tiles -> free
-// space, each voxel blended towards +1 without projection; otherwise voxel by voxel.
+// space, each voxel blended towards +1 without projection; otherwise voxel by voxel. (Boxes with
+// small footprints are classified from their own pixels, larger ones from 2x2-tile windows; the
+// voxels of a 4^3 block are projected a row of 4 at a time, see src/tsdf/row_projection.hpp.)
 //
 // Work is split in three steps so that a caller owning threads can run step 2 in parallel:
 //   1. select_bricks: frustum culling -> list of bricks the image can touch (volume.brick_list())
