@@ -103,6 +103,20 @@ void render(const Scene& scene, const edgefuse::PinholeIntrinsics& intr, const P
     }
 }
 
+edgefuse::PinholeIntrinsics bin_rig_a_tof_camera() {
+  edgefuse::PinholeIntrinsics c;
+  c.width = 160;
+  c.height = 120;
+  c.fx = 80.0f;
+  c.fy = 88.95f;
+  c.cx = 79.5f;
+  c.cy = 59.5f;
+  c.depth_scale = 5000.0f;
+  c.min_range_m = 0.1f;
+  c.max_range_m = 1.5f;
+  return c;
+}
+
 Pose look_at(const Vec3f& eye, const Vec3f& target, const Vec3f& down) {
   Pose p;
   const Vec3f z = (target - eye).normalized();

@@ -39,6 +39,10 @@ void render(const Scene& scene, const edgefuse::PinholeIntrinsics& intr, const P
             std::vector<uint16_t>& depth, std::vector<edgefuse::Rgb8>* colour = nullptr,
             std::vector<float>* cos_incidence = nullptr, std::vector<int>* item = nullptr);
 
+//! bin_rig_a's ToF camera (160x120, rig.toml's intrinsics, 0.1-1.5 m): the filter and fusion tests
+//! render its frames.
+edgefuse::PinholeIntrinsics bin_rig_a_tof_camera();
+
 //! Camera at eye looking at target, image y roughly along `down`.
 Pose look_at(const Vec3f& eye, const Vec3f& target, const Vec3f& down = Vec3f(0, 1, 0));
 

@@ -19,20 +19,6 @@ namespace {
 using View = ImageView<uint16_t>;
 using CView = ImageView<const uint16_t>;
 
-PinholeIntrinsics tof_camera() {  // the bin_rig_a ToF
-  PinholeIntrinsics c;
-  c.width = 160;
-  c.height = 120;
-  c.fx = 80.0f;
-  c.fy = 88.95f;
-  c.cx = 79.5f;
-  c.cy = 59.5f;
-  c.depth_scale = 5000.0f;
-  c.min_range_m = 0.1f;
-  c.max_range_m = 1.5f;
-  return c;
-}
-
 // Objects on a floor at 0.7 m with ToF-like noise, mixed pixels, a patch beyond the range limit and
 // an amplitude image with a dark patch.
 struct TofFrame {
@@ -82,7 +68,7 @@ TEST_GROUP(FilterChain){};
 
 template <class Real>
 static void chain_equals_the_steps_one_by_one() {
-  const PinholeIntrinsics c = tof_camera();
+  const PinholeIntrinsics c = bin_rig_a_tof_camera();
   const TofFrame f(c);
   const int w = c.width, h = c.height;
   // By hand: range -> amplitude -> jump edges -> bilateral.
@@ -127,7 +113,7 @@ TEST(FilterChain, EqualsTheStepsOneByOneFloat) { chain_equals_the_steps_one_by_o
 TEST(FilterChain, EqualsTheStepsOneByOneFixed) { chain_equals_the_steps_one_by_one<Fixed>(); }
 
 TEST(FilterChain, InPlaceOnTheDepthImage) {
-  const PinholeIntrinsics c = tof_camera();
+  const PinholeIntrinsics c = bin_rig_a_tof_camera();
   const TofFrame f(c);
   DepthFilterChain<float> chain = DepthFilterChain<float>::defaults_for(c, DepthSensorKind::kTimeOfFlight);
   CHECK(chain.prepare(c) == Status::kOk);
@@ -140,7 +126,7 @@ TEST(FilterChain, InPlaceOnTheDepthImage) {
 }
 
 TEST(FilterChain, FloatAndFixedAgree) {
-  const PinholeIntrinsics c = tof_camera();
+  const PinholeIntrinsics c = bin_rig_a_tof_camera();
   const TofFrame f(c);
   auto cf = DepthFilterChain<float>::defaults_for(c, DepthSensorKind::kTimeOfFlight);
   auto cx = DepthFilterChain<Fixed>::defaults_for(c, DepthSensorKind::kTimeOfFlight);
@@ -153,7 +139,7 @@ TEST(FilterChain, FloatAndFixedAgree) {
 }
 
 TEST(FilterChain, NoHeapAllocationPerFrame) {
-  const PinholeIntrinsics c = tof_camera();
+  const PinholeIntrinsics c = bin_rig_a_tof_camera();
   const TofFrame f(c);
   const int w = c.width, h = c.height;
   auto tof_f = DepthFilterChain<float>::defaults_for(c, DepthSensorKind::kTimeOfFlight);
@@ -180,7 +166,7 @@ TEST(FilterChain, NoHeapAllocationPerFrame) {
 }
 
 TEST(FilterChain, BadArgumentsAreRejected) {
-  const PinholeIntrinsics c = tof_camera();
+  const PinholeIntrinsics c = bin_rig_a_tof_camera();
   const int w = c.width, h = c.height;
   std::vector<uint16_t> d(std::size_t(w) * h, 3000), s(d.size()), o(d.size());
   DepthFilterChain<float> chain = DepthFilterChain<float>::defaults_for(c, DepthSensorKind::kTimeOfFlight);

@@ -23,20 +23,6 @@ VolumeStorage<kDim> g_storage;
 SensorBuffers<float> g_buf_f;
 SensorBuffers<Fixed> g_buf_q;
 
-PinholeIntrinsics tof_camera() {
-  PinholeIntrinsics c;
-  c.width = 160;
-  c.height = 120;
-  c.fx = 80.0f;
-  c.fy = 88.95f;
-  c.cx = 79.5f;
-  c.cy = 59.5f;
-  c.depth_scale = 5000.0f;
-  c.min_range_m = 0.1f;
-  c.max_range_m = 1.5f;
-  return c;
-}
-
 //! A plane at z = 0.7 m seen head-on, with gaussian z noise of kSigma (fixed seed).
 std::vector<uint16_t> noisy_plane(const PinholeIntrinsics& intr) {
   Scene scene;
@@ -53,7 +39,7 @@ std::vector<uint16_t> noisy_plane(const PinholeIntrinsics& intr) {
 //! Share of the voxels within trunc/2 of the plane (all inside the frustum) that got a sample.
 template <class Real>
 double observed_share(float jump_m, SensorBuffers<Real>& buf) {
-  const PinholeIntrinsics intr = tof_camera();
+  const PinholeIntrinsics intr = bin_rig_a_tof_camera();
   const std::vector<uint16_t> depth = noisy_plane(intr);
   TsdfVolume vol;
   const float half = 0.5f * kDim * kVoxel;
@@ -98,7 +84,7 @@ TEST(Fusion4, NoiseAwareJumpLetsANoisyPlaneIn) {
 }
 
 TEST(Fusion4, BadJumpRejected) {
-  const PinholeIntrinsics intr = tof_camera();
+  const PinholeIntrinsics intr = bin_rig_a_tof_camera();
   const std::vector<uint16_t> depth = noisy_plane(intr);
   TsdfVolume vol;
   CHECK(vol.init(g_storage.view(false), kDim, Vec3f(-0.064f, -0.064f, 0.636f), TsdfParams::defaults_for(kVoxel, kTrunc)) ==
