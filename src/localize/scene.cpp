@@ -5,16 +5,10 @@
 
 #include "edgefuse/localize/localizer.hpp"
 #include "edgefuse/math/real.hpp"
+#include "scene_grid.hpp"
 #include "sort_keys.hpp"
 
 namespace edgefuse {
-namespace {
-
-inline uint32_t grid_hash(int32_t x, int32_t y, int32_t z) {
-  return (uint32_t(x) * 73856093u ^ uint32_t(y) * 19349663u ^ uint32_t(z) * 83492791u) & (kGridBuckets - 1);
-}
-
-}  // namespace
 
 Status Localizer::set_scene(const SurfacePoint* points, std::size_t count, const SceneContext& context,
                             const TsdfVolume* volume, float grid_cell_m) {
@@ -109,42 +103,21 @@ int32_t Localizer::nearest(const Vec3f& q, float radius_m, float& dist2) const {
 }
 
 void Localizer::for_each_within(const Vec3f& q, float radius_m, int32_t label) const {
-  const int32_t cx = floor_int(q.x() * grid_inv_), cy = floor_int(q.y() * grid_inv_), cz = floor_int(q.z() * grid_inv_);
-  const int k = int(std::ceil(radius_m * grid_inv_));
   const float r2 = radius_m * radius_m;
-  for (int dz = -k; dz <= k; ++dz)
-    for (int dy = -k; dy <= k; ++dy)
-      for (int dx = -k; dx <= k; ++dx) {
-        const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
-        for (uint32_t j = b_.grid_buckets[h]; j < b_.grid_buckets[h + 1]; ++j) {
-          const uint32_t i = b_.grid_index[j];
-          if (b_.labels[i] == 0 && (b_.scene[i].p - q).squaredNorm() <= r2) b_.labels[i] = label;
-        }
-      }
+  for_cube_neighbours(b_, grid_inv_, int(std::ceil(radius_m * grid_inv_)), q, [&](uint32_t i) {
+    if (b_.labels[i] == 0 && (b_.scene[i].p - q).squaredNorm() <= r2) b_.labels[i] = label;
+  });
 }
 
 std::size_t Localizer::grow_component(std::size_t seed, float radius_m, uint32_t* visited, std::size_t tail) const {
-  const float r2 = radius_m * radius_m;
-  const int k = int(std::ceil(radius_m * grid_inv_));
   const std::size_t start = tail;
   visited[seed] = 1;
   b_.queue[tail++] = uint32_t(seed);
-  for (std::size_t head = start; head < tail; ++head) {
-    const Vec3f p = b_.scene[b_.queue[head]].p;
-    const int32_t cx = floor_int(p.x() * grid_inv_), cy = floor_int(p.y() * grid_inv_), cz = floor_int(p.z() * grid_inv_);
-    for (int dz = -k; dz <= k; ++dz)
-      for (int dy = -k; dy <= k; ++dy)
-        for (int dx = -k; dx <= k; ++dx) {
-          const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
-          for (uint32_t e = b_.grid_buckets[h]; e < b_.grid_buckets[h + 1]; ++e) {
-            const uint32_t j = b_.grid_index[e];
-            if (visited[j] || (b_.scene[j].p - p).squaredNorm() > r2) continue;
-            visited[j] = 1;
-            b_.queue[tail++] = j;
-          }
-        }
-  }
-  return tail;
+  return grow_within(b_, grid_inv_, radius_m, start, tail, [visited](uint32_t j) {
+    if (visited[j]) return false;
+    visited[j] = 1;
+    return true;
+  });
 }
 
 std::size_t Localizer::subsample_scene(float step_m) {

@@ -13,13 +13,10 @@
 
 #include "edgefuse/localize/localizer.hpp"
 #include "edgefuse/math/real.hpp"
+#include "scene_grid.hpp"
 
 namespace edgefuse {
 namespace {
-
-inline uint32_t grid_hash(int32_t x, int32_t y, int32_t z) {
-  return (uint32_t(x) * 73856093u ^ uint32_t(y) * 19349663u ^ uint32_t(z) * 83492791u) & (kGridBuckets - 1);
-}
 
 float picking_key(const LocalizedObject& o) { return o.top_m - 0.05f * (1.0f - std::min(o.score, 1.0f)); }
 
@@ -28,8 +25,6 @@ float picking_key(const LocalizedObject& o) { return o.top_m - 0.05f * (1.0f - s
 void Localizer::connected_components(float radius_m) {
   const std::size_t n = scene_count_;
   for (std::size_t i = 0; i < n; ++i) b_.labels[i] = 0;
-  const float r2 = radius_m * radius_m;
-  const int k = int(std::ceil(radius_m * grid_inv_));
   std::size_t tail = 0;
   int32_t label = 0;
   for (std::size_t seed = 0; seed < n; ++seed) {
@@ -38,21 +33,11 @@ void Localizer::connected_components(float radius_m) {
     const std::size_t start = tail;
     b_.labels[seed] = label;
     b_.queue[tail++] = uint32_t(seed);
-    for (std::size_t head = start; head < tail; ++head) {
-      const Vec3f p = b_.scene[b_.queue[head]].p;
-      const int32_t cx = floor_int(p.x() * grid_inv_), cy = floor_int(p.y() * grid_inv_), cz = floor_int(p.z() * grid_inv_);
-      for (int dz = -k; dz <= k; ++dz)
-        for (int dy = -k; dy <= k; ++dy)
-          for (int dx = -k; dx <= k; ++dx) {
-            const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
-            for (uint32_t e = b_.grid_buckets[h]; e < b_.grid_buckets[h + 1]; ++e) {
-              const uint32_t j = b_.grid_index[e];
-              if (b_.labels[j] != 0 || (b_.scene[j].p - p).squaredNorm() > r2) continue;
-              b_.labels[j] = label;
-              b_.queue[tail++] = j;
-            }
-          }
-    }
+    tail = grow_within(b_, grid_inv_, radius_m, start, tail, [this, label](uint32_t j) {
+      if (b_.labels[j] != 0) return false;
+      b_.labels[j] = label;
+      return true;
+    });
   }
 }
 

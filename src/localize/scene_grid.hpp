@@ -1,0 +1,53 @@
+// The localiser's hashed scene grid (built by Localizer::build_grid): the cell hash, the visit of
+// every point in the cube of cells within k cells of a point's cell, and the breadth-first growth
+// over it that connected components and fragment grouping share. Private to src/localize.
+#pragma once
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include "edgefuse/localize/localizer.hpp"
+#include "edgefuse/math/real.hpp"
+
+namespace edgefuse {
+
+inline uint32_t grid_hash(int32_t x, int32_t y, int32_t z) {
+  return (uint32_t(x) * 73856093u ^ uint32_t(y) * 19349663u ^ uint32_t(z) * 83492791u) & (kGridBuckets - 1);
+}
+
+//! Calls f(j) for every scene point j hashed into the cells within k cells (per axis) of p's cell;
+//! candidates only (hash collisions included): the caller checks the distance.
+//! \param b the localiser's buffers  \param grid_inv 1 / cell edge  \param k cells each side
+//! \param p query point  \param f called with each candidate's scene index
+template <typename F>
+inline void for_cube_neighbours(const LocalizeBuffers& b, float grid_inv, int k, const Vec3f& p, F&& f) {
+  const int32_t cx = floor_int(p.x() * grid_inv), cy = floor_int(p.y() * grid_inv), cz = floor_int(p.z() * grid_inv);
+  for (int dz = -k; dz <= k; ++dz)
+    for (int dy = -k; dy <= k; ++dy)
+      for (int dx = -k; dx <= k; ++dx) {
+        const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
+        for (uint32_t e = b.grid_buckets[h]; e < b.grid_buckets[h + 1]; ++e) f(b.grid_index[e]);
+      }
+}
+
+//! Breadth-first growth from b.queue[start, tail): every scene point within radius_m of a queued
+//! point for which claim(j) returns true (claim marks it) is appended to b.queue.
+//! \param b the localiser's buffers (queue, scene, grid)  \param grid_inv 1 / cell edge
+//! \param radius_m linking distance  \param start first queued index  \param tail one past the last
+//! \param claim bool(uint32_t j): false if j is taken already, else marks it and returns true
+//! \return the new tail
+template <typename Claim>
+inline std::size_t grow_within(const LocalizeBuffers& b, float grid_inv, float radius_m, std::size_t start,
+                               std::size_t tail, Claim&& claim) {
+  const float r2 = radius_m * radius_m;
+  const int k = int(std::ceil(radius_m * grid_inv));
+  for (std::size_t head = start; head < tail; ++head) {
+    const Vec3f p = b.scene[b.queue[head]].p;
+    for_cube_neighbours(b, grid_inv, k, p, [&](uint32_t j) {
+      if ((b.scene[j].p - p).squaredNorm() <= r2 && claim(j)) b.queue[tail++] = j;
+    });
+  }
+  return tail;
+}
+
+}  // namespace edgefuse
