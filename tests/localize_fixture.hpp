@@ -3,7 +3,12 @@
 // memory map would give them. Include once per test binary, after the STL / edgefuse headers and
 // before CppUTest's (its `new` macro); the storage lives in this binary's anonymous namespace.
 #pragma once
+#include <cmath>
+#include <vector>
+
 #include "edgefuse/localize/localizer.hpp"
+#include "edgefuse/tsdf/extract.hpp"
+#include "edgefuse/tsdf/integrate.hpp"
 #include "scenes.hpp"
 #include "test_support.hpp"
 
@@ -58,6 +63,51 @@ LocalizeBuffers buffers() {
   b.hypotheses_max = kHypotheses;
   b.objects_max = kObjects;
   return b;
+}
+
+//! The rendered scenes' camera: 320x240, 0.2-2 m, the bin_rig_a xtion's focal length.
+PinholeIntrinsics camera() {
+  PinholeIntrinsics c;
+  c.width = 320;
+  c.height = 240;
+  c.fx = c.fy = 288.6f;
+  c.cx = 159.5f;
+  c.cy = 119.5f;
+  c.depth_scale = 5000;
+  c.min_range_m = 0.2f;
+  c.max_range_m = 2.0f;
+  return c;
+}
+
+//! Fuses the scene seen from three viewpoints above the floor into vol (128^3 x 3 mm) and extracts
+//! its surface into g_points; returns the point count and the mean viewpoint.
+//! \param max_incidence_deg depth seen at more than this incidence is dropped, as a structured-light
+//! camera does (bin_rig_a's xtion: 75); 0 keeps every pixel
+std::size_t fuse(const Scene& scene, TsdfVolume& vol, Vec3f& viewpoint, float max_incidence_deg = 0) {
+  const PinholeIntrinsics cam = camera();
+  CHECK(vol.init(g_vol.view(false), kDim, Vec3f(-0.192f, -0.192f, -0.05f), TsdfParams::defaults_for(0.003f, 0.012f)) ==
+        Status::kOk);
+  const ImageView<const float> norms = g_sensor.ray_norms(cam);
+  FrameScratch scratch = g_sensor.scratch();
+  const Vec3f eyes[3] = {Vec3f(0, 0, 0.6f), Vec3f(0.05f, 0.02f, 0.6f), Vec3f(-0.04f, 0.05f, 0.58f)};
+  viewpoint = Vec3f::Zero();
+  for (const Vec3f& eye : eyes) {
+    const Pose T = look_at(eye, Vec3f(0, 0, 0), Vec3f(0, 1, 0));
+    std::vector<uint16_t> depth;
+    std::vector<float> cos_incidence;
+    render(scene, cam, T, depth, nullptr, max_incidence_deg > 0 ? &cos_incidence : nullptr);
+    if (max_incidence_deg > 0) {
+      const float cos_max = std::cos(max_incidence_deg * 3.14159265f / 180.0f);
+      for (std::size_t i = 0; i < depth.size(); ++i)
+        if (cos_incidence[i] < cos_max) depth[i] = 0;
+    }
+    const DepthFrame f{{depth.data(), cam.width, cam.height}, {}};
+    CHECK(integrate<float>(vol, cam, norms, f, T, scratch) == Status::kOk);
+    viewpoint += eye / 3.0f;
+  }
+  std::size_t count = 0;
+  extract_points(vol, g_points, sizeof(g_points) / sizeof(g_points[0]), count);
+  return count;
 }
 
 }  // namespace

@@ -30,41 +30,6 @@ void box_mesh(const Vec3f& half, std::vector<Vec3f>& v, std::vector<std::array<u
        {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
 }
 
-PinholeIntrinsics camera() {
-  PinholeIntrinsics c;
-  c.width = 320;
-  c.height = 240;
-  c.fx = c.fy = 288.6f;
-  c.cx = 159.5f;
-  c.cy = 119.5f;
-  c.depth_scale = 5000;
-  c.min_range_m = 0.2f;
-  c.max_range_m = 2.0f;
-  return c;
-}
-
-// Fuses the scene seen from three viewpoints above the floor; returns the surface point count.
-std::size_t fuse(const Scene& scene, TsdfVolume& vol, Vec3f& viewpoint) {
-  const PinholeIntrinsics cam = camera();
-  CHECK(vol.init(g_vol.view(false), kDim, Vec3f(-0.192f, -0.192f, -0.05f), TsdfParams::defaults_for(0.003f, 0.012f)) ==
-        Status::kOk);
-  const ImageView<const float> norms = g_sensor.ray_norms(cam);
-  FrameScratch scratch = g_sensor.scratch();
-  const Vec3f eyes[3] = {Vec3f(0, 0, 0.6f), Vec3f(0.05f, 0.02f, 0.6f), Vec3f(-0.04f, 0.05f, 0.58f)};
-  viewpoint = Vec3f::Zero();
-  for (const Vec3f& eye : eyes) {
-    const Pose T = look_at(eye, Vec3f(0, 0, 0), Vec3f(0, 1, 0));
-    std::vector<uint16_t> depth;
-    render(scene, cam, T, depth);
-    const DepthFrame f{{depth.data(), cam.width, cam.height}, {}};
-    CHECK(integrate<float>(vol, cam, norms, f, T, scratch) == Status::kOk);
-    viewpoint += eye / 3.0f;
-  }
-  std::size_t count = 0;
-  extract_points(vol, g_points, sizeof(g_points) / sizeof(g_points[0]), count);
-  return count;
-}
-
 // Largest distance from a box corner at the estimate to the nearest true corner (symmetry-aware).
 float corner_error(const Vec3f& half, const Pose& est, const Pose& truth) {
   float worst = 0;

@@ -50,46 +50,6 @@ Mesh bracket_mesh() {
   return m;
 }
 
-PinholeIntrinsics camera() {
-  PinholeIntrinsics c;
-  c.width = 320;
-  c.height = 240;
-  c.fx = c.fy = 288.6f;
-  c.cx = 159.5f;
-  c.cy = 119.5f;
-  c.depth_scale = 5000;
-  c.min_range_m = 0.2f;
-  c.max_range_m = 2.0f;
-  return c;
-}
-
-// Fuses the scene seen from three viewpoints above the floor, dropping depth seen at more than 75
-// deg incidence (as bin_rig_a's structured-light camera); returns the surface point count.
-std::size_t fuse(const Scene& scene, TsdfVolume& vol, Vec3f& viewpoint) {
-  const PinholeIntrinsics cam = camera();
-  CHECK(vol.init(g_vol.view(false), kDim, Vec3f(-0.192f, -0.192f, -0.05f), TsdfParams::defaults_for(0.003f, 0.012f)) ==
-        Status::kOk);
-  const ImageView<const float> norms = g_sensor.ray_norms(cam);
-  FrameScratch scratch = g_sensor.scratch();
-  const Vec3f eyes[3] = {Vec3f(0, 0, 0.6f), Vec3f(0.05f, 0.02f, 0.6f), Vec3f(-0.04f, 0.05f, 0.58f)};
-  viewpoint = Vec3f::Zero();
-  for (const Vec3f& eye : eyes) {
-    const Pose T = look_at(eye, Vec3f(0, 0, 0), Vec3f(0, 1, 0));
-    std::vector<uint16_t> depth;
-    std::vector<float> cos_incidence;
-    render(scene, cam, T, depth, nullptr, &cos_incidence);
-    const float cos_max = std::cos(75.0f * 3.14159265f / 180.0f);
-    for (std::size_t i = 0; i < depth.size(); ++i)
-      if (cos_incidence[i] < cos_max) depth[i] = 0;
-    const DepthFrame f{{depth.data(), cam.width, cam.height}, {}};
-    CHECK(integrate<float>(vol, cam, norms, f, T, scratch) == Status::kOk);
-    viewpoint += eye / 3.0f;
-  }
-  std::size_t count = 0;
-  extract_points(vol, g_points, sizeof(g_points) / sizeof(g_points[0]), count);
-  return count;
-}
-
 // Largest distance between corresponding bounding-box corners at the estimate and at the truth (the
 // bracket has no proper symmetry, so corners correspond one to one).
 float corner_error(const Pose& est, const Pose& truth) {
@@ -145,7 +105,7 @@ TEST(LocalizeRest, FindsAnUprightBracketFromItsEdgeAndFlange) {
   scene.add_box(truth * Vec3f(-0.0375f, 0, 0.0025f), Vec3f(0.0025f, 0.015f, 0.015f), truth);  // flange
   TsdfVolume vol;
   SceneContext ctx;
-  const std::size_t n = fuse(scene, vol, ctx.viewpoint_m);
+  const std::size_t n = fuse(scene, vol, ctx.viewpoint_m, 75.0f);
   // Without the rest-pose round (for the record: point pair features on a 5 mm edge seldom work).
   params.rest_poses = false;
   CHECK(loc.set_scene(g_points, n, ctx, &vol, 0.0075f) == Status::kOk);
