@@ -5,6 +5,7 @@
 
 #include "edgefuse/localize/localizer.hpp"
 #include "edgefuse/math/real.hpp"
+#include "pose_order.hpp"
 #include "ppf_math.hpp"
 
 namespace edgefuse {
@@ -15,20 +16,6 @@ struct Cluster {
   float votes;
   uint32_t first;  // index of its best candidate (ties: earlier first)
 };
-
-float rot_angle(const Mat3f& A, const Mat3f& B) {
-  const float c = 0.5f * ((A.transpose() * B).trace() - 1.0f);
-  return std::acos(ppf::clamp_unit(c));
-}
-
-// A total order on poses (translation, then rotation) so that sorts need no stability.
-bool pose_less(const Pose& a, const Pose& b) {
-  for (int i = 0; i < 3; ++i)
-    if (a.t[i] != b.t[i]) return a.t[i] < b.t[i];
-  for (int i = 0; i < 9; ++i)
-    if (a.R.data()[i] != b.R.data()[i]) return a.R.data()[i] < b.R.data()[i];
-  return false;
-}
 
 // At most this many model samples take part in ICP and verification (even stride over the table).
 constexpr uint32_t kIcpPoints = 1500;
@@ -205,9 +192,8 @@ void Localizer::claim(int m, const Pose& T, const LocalizeParams& params, int32_
 
 void Localizer::sort_picking_order(std::size_t count) const {
   // Highest first; an occluded object (low supported share) counts up to 5 cm lower.
-  auto key = [](const LocalizedObject& o) { return o.top_m - 0.05f * (1.0f - std::min(o.score, 1.0f)); };
-  std::sort(b_.results, b_.results + count, [&key](const LocalizedObject& a, const LocalizedObject& b) {
-    if (key(a) != key(b)) return key(a) > key(b);
+  std::sort(b_.results, b_.results + count, [](const LocalizedObject& a, const LocalizedObject& b) {
+    if (picking_key(a) != picking_key(b)) return picking_key(a) > picking_key(b);
     if (a.model != b.model) return a.model < b.model;
     if (a.segment != b.segment) return a.segment < b.segment;
     return pose_less(a.T_world_object, b.T_world_object);
@@ -290,20 +276,14 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
     last_candidates_ += nc;
     // Greedy clustering, strongest candidates first.
     PoseCandidate* cand = b_.candidates;
-    // std::sort with full tie-breaks (stable_sort would allocate a buffer).
-    std::sort(cand, cand + nc, [](const PoseCandidate& a, const PoseCandidate& b) {
-      if (a.votes != b.votes) return a.votes > b.votes;
-      return pose_less(a.T_world_object, b.T_world_object);
-    });
+    std::sort(cand, cand + nc, votes_then_pose);
     int ncl = 0;
     const float dt = params.cluster_trans_rel * info.diameter_m;
     const float dr = params.cluster_rot_deg * ppf::kPi / 180.0f;
     for (std::size_t k = 0; k < nc; ++k) {
       int found = -1;
       for (int c = 0; c < ncl && found < 0; ++c)
-        if ((clusters[c].T.t - cand[k].T_world_object.t).norm() < dt &&
-            rot_angle(clusters[c].T.R, cand[k].T_world_object.R) < dr)
-          found = c;
+        if (same_pose_cluster(clusters[c].T, cand[k].T_world_object, dt, dr)) found = c;
       if (found >= 0) clusters[found].votes += cand[k].votes;
       else if (ncl < 8 * kClustersPerModel) clusters[ncl++] = Cluster{cand[k].T_world_object, cand[k].votes, uint32_t(k)};
     }

@@ -17,6 +17,7 @@
 
 #include "edgefuse/localize/localizer.hpp"
 #include "edgefuse/math/real.hpp"
+#include "pose_order.hpp"
 #include "ppf_math.hpp"
 #include "sort_keys.hpp"
 
@@ -26,14 +27,6 @@ namespace {
 // Rotation that turns the object-frame direction `down` into -z (the resting face onto the floor).
 Mat3f rest_rotation(const Vec3f& down) {
   return Eigen::Quaternionf::FromTwoVectors(down, Vec3f(0, 0, -1)).toRotationMatrix();
-}
-
-bool pose_before(const Pose& a, const Pose& b) {
-  for (int i = 0; i < 3; ++i)
-    if (a.t[i] != b.t[i]) return a.t[i] < b.t[i];
-  for (int i = 0; i < 9; ++i)
-    if (a.R.data()[i] != b.R.data()[i]) return a.R.data()[i] < b.R.data()[i];
-  return false;
 }
 
 constexpr int kPeaksPerJob = 2;      // vote peaks kept per (resting face, yaw)
@@ -351,20 +344,15 @@ std::size_t Localizer::queue_rest_hypotheses(int m, const LocalizeParams& params
   std::size_t nc = 0;
   for (std::size_t k = 0; k < slots; ++k)
     if (cand[k].votes > 0) cand[nc++] = cand[k];
-  std::sort(cand, cand + nc, [](const PoseCandidate& a, const PoseCandidate& b) {
-    if (a.votes != b.votes) return a.votes > b.votes;
-    return pose_before(a.T_world_object, b.T_world_object);
-  });
+  std::sort(cand, cand + nc, votes_then_pose);
   Pose cl_T[kRestClusters];
   int ncl = 0;
   const float dt = params.cluster_trans_rel * info.diameter_m;
-  const float cos_dr = std::cos(params.cluster_rot_deg * ppf::kPi / 180.0f);
+  const float dr = params.cluster_rot_deg * ppf::kPi / 180.0f;
   for (std::size_t k = 0; k < nc; ++k) {
     int found = -1;
     for (int c = 0; c < ncl && found < 0; ++c)
-      if ((cl_T[c].t - cand[k].T_world_object.t).norm() < dt &&
-          0.5f * ((cl_T[c].R.transpose() * cand[k].T_world_object.R).trace() - 1.0f) > cos_dr)
-        found = c;
+      if (same_pose_cluster(cl_T[c], cand[k].T_world_object, dt, dr)) found = c;
     if (found < 0 && ncl < kRestClusters) {
       cl_T[ncl++] = cand[k].T_world_object;  // its strongest peak: later, weaker ones add nothing
     }

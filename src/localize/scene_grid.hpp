@@ -1,6 +1,7 @@
 // The localiser's hashed scene grid (built by Localizer::build_grid): the cell hash, the visit of
-// every point in the cube of cells within k cells of a point's cell, and the breadth-first growth
-// over it that connected components and fragment grouping share. Private to src/localize.
+// every point in the cube of cells within k cells of a point's cell or in the cells a ball
+// overlaps, and the breadth-first growth that connected components and fragment grouping share.
+// Private to src/localize.
 #pragma once
 #include <cmath>
 #include <cstddef>
@@ -26,6 +27,24 @@ inline void for_cube_neighbours(const LocalizeBuffers& b, float grid_inv, int k,
     for (int dy = -k; dy <= k; ++dy)
       for (int dx = -k; dx <= k; ++dx) {
         const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
+        for (uint32_t e = b.grid_buckets[h]; e < b.grid_buckets[h + 1]; ++e) f(b.grid_index[e]);
+      }
+}
+
+//! Calls f(j) for every scene point j in the grid cells that the ball of radius r around p
+//! overlaps (candidates only: the caller checks the distance). The exact cell range, not a cube of
+//! ceil(r / cell) cells either side: 2-3 cells per axis instead of 5 for the crease radius.
+//! \param b the localiser's buffers  \param grid_inv 1 / cell edge  \param r ball radius
+//! \param p ball centre  \param f called with each candidate's scene index
+template <typename F>
+inline void for_grid_neighbours(const LocalizeBuffers& b, float grid_inv, float r, const Vec3f& p, F&& f) {
+  const int32_t x0 = floor_int((p.x() - r) * grid_inv), x1 = floor_int((p.x() + r) * grid_inv);
+  const int32_t y0 = floor_int((p.y() - r) * grid_inv), y1 = floor_int((p.y() + r) * grid_inv);
+  const int32_t z0 = floor_int((p.z() - r) * grid_inv), z1 = floor_int((p.z() + r) * grid_inv);
+  for (int32_t z = z0; z <= z1; ++z)
+    for (int32_t y = y0; y <= y1; ++y)
+      for (int32_t x = x0; x <= x1; ++x) {
+        const uint32_t h = grid_hash(x, y, z);
         for (uint32_t e = b.grid_buckets[h]; e < b.grid_buckets[h + 1]; ++e) f(b.grid_index[e]);
       }
 }

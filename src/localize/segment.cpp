@@ -13,14 +13,10 @@
 
 #include "edgefuse/localize/localizer.hpp"
 #include "edgefuse/math/real.hpp"
+#include "pose_order.hpp"
 #include "scene_grid.hpp"
 
 namespace edgefuse {
-namespace {
-
-float picking_key(const LocalizedObject& o) { return o.top_m - 0.05f * (1.0f - std::min(o.score, 1.0f)); }
-
-}  // namespace
 
 void Localizer::connected_components(float radius_m) {
   const std::size_t n = scene_count_;
@@ -42,22 +38,6 @@ void Localizer::connected_components(float radius_m) {
 }
 
 namespace {
-
-//! Calls f(j) for every scene point j in the grid cells that the ball of radius r around p
-//! overlaps (candidates only: the caller checks the distance). The exact cell range, not a cube of
-//! ceil(r / cell) cells either side: 2-3 cells per axis instead of 5 for the crease radius.
-template <typename F>
-inline void for_grid_neighbours(const LocalizeBuffers& b, float grid_inv, float r, const Vec3f& p, F&& f) {
-  const int32_t x0 = floor_int((p.x() - r) * grid_inv), x1 = floor_int((p.x() + r) * grid_inv);
-  const int32_t y0 = floor_int((p.y() - r) * grid_inv), y1 = floor_int((p.y() + r) * grid_inv);
-  const int32_t z0 = floor_int((p.z() - r) * grid_inv), z1 = floor_int((p.z() + r) * grid_inv);
-  for (int32_t z = z0; z <= z1; ++z)
-    for (int32_t y = y0; y <= y1; ++y)
-      for (int32_t x = x0; x <= x1; ++x) {
-        const uint32_t h = grid_hash(x, y, z);
-        for (uint32_t e = b.grid_buckets[h]; e < b.grid_buckets[h + 1]; ++e) f(b.grid_index[e]);
-      }
-}
 
 constexpr int32_t kCrease = -1;  //!< label of a point on a concave crease while growing
 
