@@ -50,6 +50,9 @@ struct MeshScratch {
 
 //! Marching cubes over the observed cells (all 8 corners observed); vertices are shared between
 //! neighbouring cells, normals from the TSDF gradient, colour interpolated.
-Status extract_mesh(const TsdfVolume& volume, MeshScratch scratch, MeshSink& sink);
+//! \param volume the space  \param scratch two z-slices of vertex ids  \param sink receives the mesh
+//! \param min_weight support rule of extract_points: a cell is polygonised only when both voxels of
+//!        each of its crossing edges hold at least this weight; 0 or 1: every observed cell.
+Status extract_mesh(const TsdfVolume& volume, MeshScratch scratch, MeshSink& sink, uint8_t min_weight = 0);
 
 }  // namespace edgefuse
