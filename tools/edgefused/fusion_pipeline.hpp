@@ -123,6 +123,11 @@ class FusionPipeline final : public runtime::Pipeline {
   static constexpr int kCamerasMax = 3;
   void process_reference(uint64_t now_us);
   void process_other(CameraStream& c);
+  //! fusion5: sets f.jump_m from the frame's median noise (fusion_rules.hpp) and records the median.
+  //! \param c the camera  \param f its staged frame  \param frame the held HAL frame (amplitude)
+  void apply_noise_jump(CameraStream& c, DepthFrame& f, const hal::DepthFrame& frame);
+  //! Support rule of the map's extraction: as `edgefuse fuse --sensors` for the fused cameras (0: one camera).
+  uint8_t support_weight() const;
   void process_profile(const hal::LineProfile& p);
   void drain_profiles();
   void update_mounts();
