@@ -247,7 +247,8 @@ int cmd_fuse_rig(int argc, char** argv) {
                                                                          : "default")
                                : (args.has("full-coverage") ? "--full-coverage" : "--min-support"));
   io::PointCloud cloud;
-  const Status xs = core.extract_cloud(cloud, uint8_t(min_support));
+  // Each point carries its evidence (the weaker voxel's weight) as the property / field "support".
+  const Status xs = core.extract_cloud(cloud, uint8_t(min_support), true);
   if (min_weight > 0) {
     // Confidence filter: keep a point only where some of the 8 voxels around it holds at least
     // min_weight (weight units: 1/8 sample x trust), i.e. the surface there is supported by that much data.
@@ -257,11 +258,13 @@ int cmd_fuse_rig(int argc, char** argv) {
       cloud.points[kept] = cloud.points[i];
       cloud.normals[kept] = cloud.normals[i];
       if (!cloud.colours.empty()) cloud.colours[kept] = cloud.colours[i];
+      cloud.support[kept] = cloud.support[i];
       ++kept;
     }
     cloud.points.resize(kept);
     cloud.normals.resize(kept);
     if (!cloud.colours.empty()) cloud.colours.resize(kept);
+    cloud.support.resize(kept);
     cloud.width = int(kept);
   }
   std::size_t coloured = 0;
