@@ -629,7 +629,7 @@ void FusionPipeline::process_other(CameraStream& c) {
 
 // The noise rules of `edgefuse fuse --sensors` (fusion_rules.hpp), shared code: the depth-jump
 // limit follows the frame's median modelled noise; the median is also kept per camera for the
-// support rule of extraction (support_weight()).
+// support rule of extraction (map_support_weight()).
 void FusionPipeline::apply_noise_jump(CameraStream& c, DepthFrame& f, const hal::DepthFrame& frame) {
   const float sigma_m = median_sigma_m(c.noise, f.depth, c.intr.depth_scale, frame.amplitude_view());
   c.sigma_sum_m += sigma_m;
@@ -637,12 +637,11 @@ void FusionPipeline::apply_noise_jump(CameraStream& c, DepthFrame& f, const hal:
   f.jump_m = noise_jump_m(sigma_m, kJumpSigmas);
 }
 
-uint8_t FusionPipeline::support_weight() const {
+uint8_t FusionPipeline::map_support_weight() const {
   if (!use_trust_) return 0;  // one camera, equal weights: every observed crossing, as before
   float sigma[kCamerasMax] = {};
   for (int k = 0; k < fuse_count_; ++k) {
-    const CameraStream& c = cams_[order_[k]];
-    sigma[k] = c.sigma_frames > 0 ? float(c.sigma_sum_m / double(c.sigma_frames)) : 0.0f;
+    sigma[k] = cams_[order_[k]].median_sigma();
   }
   return default_support_weight(sigma, fuse_count_, 0.5f * fuse_.voxel_m);
 }
@@ -728,7 +727,7 @@ void FusionPipeline::run_localization() {
   const BoardCapacities& board = build_board();
   std::size_t surface = 0;
   const std::size_t cap = std::min<std::size_t>(board.points_max, board.scene_points_max);
-  const Status xs = extract_points(core_.volume, core_.buffers.points, cap, surface, support_weight());
+  const Status xs = extract_points(core_.volume, core_.buffers.points, cap, surface, map_support_weight());
   SceneContext ctx;
   ctx.viewpoint_m = map_frames_ > 0 ? Vec3f(view_sum_ / float(map_frames_)) : Vec3f::Zero();
   // Grid cell 3.5 voxels: as edgefuse localize (measured fastest on bin_rig_a, same poses).
