@@ -228,11 +228,11 @@ double signed_volume(const VectorSink& m) {
   return v;
 }
 
-Status mesh(VectorSink& sink) {
+Status mesh(VectorSink& sink, uint8_t min_weight = 0) {
   MeshScratch scratch;
   scratch.edge_ids = g_edge_ids;
   scratch.capacity = sizeof(g_edge_ids) / sizeof(g_edge_ids[0]);
-  return extract_mesh(g_volume, scratch, sink);
+  return extract_mesh(g_volume, scratch, sink, min_weight);
 }
 
 bool less_xyz(const Vec3f& a, const Vec3f& b) {
@@ -784,4 +784,51 @@ TEST(ExtractPoints, MinWeightSupportRule) {
   LONGS_EQUAL(n4, n8);
   CHECK(extract_points(g_volume, g_points2, kMaxPoints, n9, 9) == Status::kOk);
   LONGS_EQUAL(0, n9);
+}
+
+// Fusion round 5: the same support rule for marching cubes. The plane of MinWeightSupportRule with
+// its 3-unit patch: at min_weight 4 every cell with a corner in a patch column goes (11 x 6 cells:
+// the patch's 10 x 5 columns and the cells reaching into them from -x and -y), the mesh's vertices
+// are exactly the points extract_points keeps under the same rule, and the rest is the plain mesh.
+TEST(ExtractMesh, MinWeightSupportRule) {
+  const float z0 = 0.0123f;
+  fill(g_volume, [&](const Vec3f& p) { return p.z() - z0; }, seen_like_integration);
+  auto in_patch = [](int x, int y) { return x >= 10 && x < 20 && y >= 30 && y < 35; };
+  for (int z = 0; z < kDim; ++z)
+    for (int y = 0; y < kDim; ++y)
+      for (int x = 0; x < kDim; ++x) {
+        const std::size_t k = g_volume.index(x, y, z);
+        if (g_weight[k] != 0) g_weight[k] = in_patch(x, y) ? 3 : 8;
+      }
+  VectorSink plain, m0, m1, m4, m8, m9;
+  CHECK(mesh(plain) == Status::kOk);
+  CHECK(mesh(m0, 0) == Status::kOk);
+  CHECK(mesh(m1, 1) == Status::kOk);
+  CHECK(mesh(m4, 4) == Status::kOk);
+  CHECK(mesh(m8, 8) == Status::kOk);
+  CHECK(mesh(m9, 9) == Status::kOk);
+  LONGS_EQUAL(2 * (kDim - 1) * (kDim - 1), plain.triangles.size());
+  CHECK(m0.triangles == plain.triangles && m0.position == plain.position);
+  CHECK(m1.triangles == plain.triangles && m1.position == plain.position);
+
+  const MeshTopology t = topology(m4);
+  LONGS_EQUAL(2 * ((kDim - 1) * (kDim - 1) - 11 * 6), t.faces);
+  LONGS_EQUAL(kDim * kDim - 10 * 5, t.vertices);
+  LONGS_EQUAL(0, t.unused_vertices);
+  LONGS_EQUAL(0, t.nonmanifold_edges);
+  LONGS_EQUAL(0, t.misoriented_edges);
+  LONGS_EQUAL(0, t.euler());  // a disc with a hole
+  std::size_t n4 = 0;
+  CHECK(extract_points(g_volume, g_points2, kMaxPoints, n4, 4) == Status::kOk);
+  LONGS_EQUAL(n4, m4.position.size());
+  for (const Vec3f& p : m4.position) {
+    const Vec3f g = (p - g_volume.origin_m()) / kVoxel;
+    CHECK(!in_patch(int(std::floor(g.x())), int(std::floor(g.y()))));
+    bool found = false;  // every vertex is a point of the same rule
+    for (std::size_t i = 0; i < n4 && !found; ++i) found = (g_points2[i].position - p).norm() < 1e-6f;
+    CHECK(found);
+  }
+  CHECK(m8.triangles == m4.triangles && m8.position == m4.position);
+  LONGS_EQUAL(0, m9.triangles.size());
+  LONGS_EQUAL(0, m9.position.size());
 }

@@ -23,6 +23,7 @@ io::PointCloud test_cloud(std::size_t n, bool attrs) {
     c.normals.emplace_back(0.0f, 0.6f, 0.8f);
     c.colours.push_back(Rgba8{uint8_t(i), uint8_t(2 * i), uint8_t(255 - i), uint8_t(i % 2 ? 255 : 0)});
     c.labels.push_back(uint32_t(i * 1000003u));
+    c.support.push_back(uint8_t(i * 7 % 256));  // fusion5: per-point evidence
   }
   if (n > 3) c.points[3] = Vec3f(std::numeric_limits<float>::quiet_NaN(), 0, 0);
   return c;
@@ -49,6 +50,7 @@ void check_same_cloud(const io::PointCloud& a, const io::PointCloud& b) {
   LONGS_EQUAL(long(a.normals.size()), long(b.normals.size()));
   LONGS_EQUAL(long(a.colours.size()), long(b.colours.size()));
   LONGS_EQUAL(long(a.labels.size()), long(b.labels.size()));
+  LONGS_EQUAL(long(a.support.size()), long(b.support.size()));
   for (std::size_t i = 0; i < a.points.size(); ++i) {
     CHECK(same(a.points[i], b.points[i]));
     if (!a.normals.empty()) CHECK(same(a.normals[i], b.normals[i]));
@@ -58,6 +60,7 @@ void check_same_cloud(const io::PointCloud& a, const io::PointCloud& b) {
       LONGS_EQUAL(a.colours[i].a, b.colours[i].a);
     }
     if (!a.labels.empty()) LONGS_EQUAL(a.labels[i], b.labels[i]);
+    if (!a.support.empty()) LONGS_EQUAL(a.support[i], b.support[i]);
   }
 }
 
@@ -259,6 +262,9 @@ TEST(FormatsPly, WriterRejectsInconsistentInput) {
   std::string err;
   io::PointCloud c = test_cloud(5, true);
   c.normals.pop_back();
+  CHECK_FAILS_NAMING(io::write_ply(dir.file("w.ply"), c, err), err, "w.ply");
+  c = test_cloud(5, true);
+  c.support.pop_back();
   CHECK_FAILS_NAMING(io::write_ply(dir.file("w.ply"), c, err), err, "w.ply");
   io::TriangleMesh m = test_mesh();
   m.triangles.push_back({0, 1, 4});

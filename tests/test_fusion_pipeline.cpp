@@ -9,6 +9,7 @@
 
 #include "alloc_counter.hpp"
 #include "edgefuse/board_config.hpp"
+#include "edgefuse/fusion/fusion_rules.hpp"
 #include "fusion_pipeline.hpp"
 #include "hal/sim/fault_camera.hpp"
 
@@ -183,6 +184,14 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   CHECK_TRUE(step_frames(*p, 10));
   CHECK_EQUAL(0L, edgefuse_test::alloc_count());
   CHECK_TRUE(p->camera_stream(1).integrated >= 2);
+  // fusion5: the map takes the rules of `edgefuse fuse --sensors` (fusion_rules.hpp): each fused
+  // frame's median noise sets its depth-jump limit, and a set mixing the ToF's sub-unit samples
+  // with the xtion's extracts with the evidence rule (support 9).
+  CHECK_TRUE(p->camera_stream(0).sigma_frames >= 2 && p->camera_stream(1).sigma_frames >= 2);
+  const float sigma_ref_m = 0.5f * c.voxel_m;  // the pipeline's trust reference
+  CHECK_FALSE(sub_unit_sensor(p->camera_stream(0).median_sigma(), sigma_ref_m));
+  CHECK_TRUE(sub_unit_sensor(p->camera_stream(1).median_sigma(), sigma_ref_m));
+  LONGS_EQUAL(kEvidenceSupportWeight, p->map_support_weight());
   // The tof's newest frame against the map (the sim rig sways slowly: within the pairing window).
   runtime::PairCalibrationReport r;
   bool ok = false;
@@ -223,6 +232,7 @@ TEST(FusionPipeline, LineScannerFeedsTheMap) {
   CHECK_TRUE(step_frames(*p, 5));
   CHECK_EQUAL(0L, edgefuse_test::alloc_count());
   CHECK_TRUE(p->scanner_stream().integrated > before + 10);
+  LONGS_EQUAL(kMinSupportWeight, p->map_support_weight());  // fusion5: one camera (+ scanner): support 4
   const std::string status = p->device_state(2);
   CHECK_TRUE_TEXT(status.find("streaming (map) profiles") == 0, status.c_str());
   p->stop_mapping();

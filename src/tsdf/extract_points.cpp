@@ -61,6 +61,7 @@ Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t c
                 p.position = e.position;
                 p.normal = e.normal;
                 p.colour = e.colour;
+                p.support = w[idx] < w[j] ? w[idx] : w[j];
               }
             }
           }

@@ -16,6 +16,11 @@
 // layer that can have written it (z-1 or z for voxel layer z): ids returned by the sink increase
 // (0, 1, 2, ... in call order), so an older id is left over from two layers back. (A sink
 // returning other ids costs vertex sharing, never memory safety.)
+//
+// Support rule (min_weight > 1; fusion round 5, the rule of extract_points): a cell is polygonised
+// only when both voxels of every one of its crossing edges hold at least min_weight. The whole
+// cell goes, not single triangles, so the mesh keeps its topology (a boundary where evidence ends)
+// and every vertex is a crossing the point cloud of the same rule also holds.
 #include <cstddef>
 #include <cstdint>
 
@@ -29,7 +34,7 @@ namespace {
 constexpr uint32_t kNoVertex = 0xFFFFFFFFu;
 }  // namespace
 
-Status extract_mesh(const TsdfVolume& volume, MeshScratch scratch, MeshSink& sink) {
+Status extract_mesh(const TsdfVolume& volume, MeshScratch scratch, MeshSink& sink, uint8_t min_weight) {
   using namespace extract_detail;
   if (!volume.initialised()) return Status::kNotInitialised;
   const int dim = volume.dim();
@@ -117,8 +122,15 @@ Status extract_mesh(const TsdfVolume& volume, MeshScratch scratch, MeshSink& sin
               band = band || in_band(t[ci[i]]);
             }
             if (!observed || !band) continue;
-            const int x = bx * kBrickSide + lx;
             const unsigned mask = mc::kMc.edge_mask[cube];
+            if (min_weight > 1) {
+              bool supported = true;
+              for (int e = 0; e < 12 && supported; ++e)
+                if (mask & (1u << e))
+                  supported = w[ci[mc::kEdgeCorners[e][0]]] >= min_weight && w[ci[mc::kEdgeCorners[e][1]]] >= min_weight;
+              if (!supported) continue;
+            }
+            const int x = bx * kBrickSide + lx;
             uint32_t vid[12];
             for (int e = 0; e < 12; ++e) {
               if (!(mask & (1u << e))) continue;

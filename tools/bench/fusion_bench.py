@@ -7,7 +7,9 @@
    aligned).
 2. Clouds: `edgefuse fuse RIGSET --sensors S --origin O --out S.ply` for S = xtion, tof, laser
    alone (the ToF with and without its bilateral filter; xtion and ToF also with round 3's rules,
-   `--min-support 0 --jump-sigmas 0`), xtion+tof+laser (round 3's rules, each round-4 rule alone,
+   `--min-support 0 --jump-sigmas 0`; round 5: the xtion also with the fused default's evidence rule
+   `--min-support 9`, like for like), xtion+tof+laser (round 5's default: the evidence rule, support 9;
+   `--full-coverage`: round 4's support 4; round 3's rules, each round-4 rule alone,
    support 3 instead of 4; defaults: true
    extrinsics, no noise gate; --extrinsics calibrated; noise gate 4 and 6 mm; the ToF's bilateral
    filter on, as in round 2; equal weights; the scanner's poses 2.7 mm off, without and with --register-laser;
@@ -183,15 +185,18 @@ def main():
     r3 = ["--min-support", "0", "--jump-sigmas", "0"]  # round 3's rules (before feat/fusion4)
     runs = [("xtion", ["--sensors", "xtion", "--max-sigma", "0"]),
             ("xtion, round-3 rules", ["--sensors", "xtion", "--max-sigma", "0"] + r3),
+            ("xtion, evidence rule (support 9)", ["--sensors", "xtion", "--max-sigma", "0", "--min-support", "9"]),
             ("tof", ["--sensors", "tof", "--max-sigma", "0", "--tof-bilateral"]),
             ("tof, no bilateral", ["--sensors", "tof", "--max-sigma", "0"]),
             ("tof, no bilateral, round-3 rules", ["--sensors", "tof", "--max-sigma", "0"] + r3),
             ("laser", ["--sensors", "laser"]),
             ("fused (true extrinsics)", ["--sensors", "xtion,tof,laser"]),
+            ("fused, --full-coverage (round 4's default)", ["--sensors", "xtion,tof,laser", "--full-coverage"]),
             ("fused, round-3 rules", ["--sensors", "xtion,tof,laser"] + r3),
             ("fused, noise-aware jump only", ["--sensors", "xtion,tof,laser", "--min-support", "0"]),
             ("fused, support rule only", ["--sensors", "xtion,tof,laser", "--jump-sigmas", "0"]),
             ("fused, support 3", ["--sensors", "xtion,tof,laser", "--min-support", "3"]),
+            ("fused, support 8", ["--sensors", "xtion,tof,laser", "--min-support", "8"]),
             ("fused (calibrated)", ["--sensors", "xtion,tof,laser", "--extrinsics", extr]),
             ("fused, noise gate 4 mm", ["--sensors", "xtion,tof,laser", "--max-sigma", "0.004"]),
             ("fused, noise gate 6 mm", ["--sensors", "xtion,tof,laser", "--max-sigma", "0.006"]),
@@ -276,6 +281,18 @@ def main():
     print("target T_xtion_tof within 1 mm and 0.1 deg: %s (%.3f mm, %.4f deg)" % ("met" if ok_t else "NOT met", dt_mm, ddeg))
     print("target fused median <= 1 mm and below xtion and tof alone: %s" % ("met" if ok_med else "NOT met"))
     print("target fused coverage above every single sensor's: %s" % ("met" if ok_cov else "NOT met"))
+    # Round 5: like for like (the same support rule on the xtion alone), and the full-coverage cloud.
+    xe = res["xtion, evidence rule (support 9)"]
+    print("like for like (support 9 on both): fused %.4f mm / %.1f %% against xtion %.4f mm / %.1f %%: median %s, coverage %s"
+          % (fused[2], fused[4], xe[2], xe[4], "below" if fused[2] < xe[2] else "NOT below",
+             "above" if fused[4] > xe[4] else "NOT above"))
+    xd = res["xtion"]
+    print("against the xtion at its own defaults (%.4f mm / %.1f %%): median %s, coverage %s"
+          % (xd[2], xd[4], "below" if fused[2] < xd[2] else "NOT below", "above" if fused[4] > xd[4] else "NOT above"))
+    fc = res["fused, --full-coverage (round 4's default)"]
+    print("--full-coverage: %.4f mm / %.1f %%: median %s, coverage %s" % (
+        fc[2], fc[4], "met" if fc[2] <= 1.0 and fc[2] < best_xtion_med and fc[2] < best_tof_med else "NOT met",
+        "met" if fc[4] > max([res["laser"][4]] + [r[4] for r in tofs + xtions]) else "NOT met"))
     g = res["fused, noise gate 4 mm"]
     print("with --max-sigma 0.004 (no ToF pixel left on bin_rig_a): median %s, coverage %s" % (
         "met" if g[2] <= 1.0 and g[2] < best_xtion_med and g[2] < best_tof_med else "NOT met",

@@ -30,7 +30,7 @@ const char* kUsage =
     "                     [--mesh FILE.ply] [--threads N] [--guess tx,ty,tz,rx,ry,rz] [--no-trust]\n"
     "                     [--no-paint] [--no-filter] [--tof-bilateral] [--register-laser] [--laser-patch N]\n"
     "                     [--laser-6dof] [--laser-min-eigen R] [--laser-offset tx,ty,tz,rx,ry,rz]\n"
-    "                     [--max-sigma M] [--min-support W] [--jump-sigmas K]\n"
+    "                     [--max-sigma M] [--min-support W | --full-coverage] [--min-weight W] [--jump-sigmas K]\n"
     "  Fuses the listed sensors of a rig set into one space. Pinhole sensors are placed by\n"
     "  --extrinsics: 'true' (default) = each sensor's own groundtruth.txt; 'calibrated' = the\n"
     "  reference camera's poses (the first listed with colour, else the first pinhole) times the\n"
@@ -48,8 +48,14 @@ const char* kUsage =
     "  --max-sigma M: pixels whose modelled noise exceeds M metres are not integrated (default 0: all;\n"
     "  half the truncation is the noise the space can hold; needs the noise models, not with --no-trust).\n"
     "  --min-support W: a surface point needs both voxels of its zero crossing to hold at least W weight\n"
-    "  units (1/8 of a full-trust sample; default 4 with the noise models: one Xtion frame or four ToF\n"
-    "  samples; 0: off). --jump-sigmas K: a depth difference of more than K x the frame's median modelled\n"
+    "  units (1/8 of a full-trust sample, weight (sigma_ref/sigma)^2; 0: off). Default with the noise models\n"
+    "  (the evidence rule): 9 when the set mixes a camera whose samples weigh less than half a unit\n"
+    "  (noise above 4 x sigma_ref: the ToF) with one whose samples weigh more (the Xtion) - a point then\n"
+    "  needs more support than sub-unit samples alone can store, i.e. the accuracy of a frame of the\n"
+    "  better camera, so the fused cloud is not less accurate than it; else 4 (half a sample: one Xtion\n"
+    "  frame at 0.7 m). --full-coverage: 4 for every set (round 4's cloud: the ToF-only surface too, at\n"
+    "  the ToF's accuracy). --min-weight W: also drop points none of whose 8 voxels holds W.\n"
+    "  --jump-sigmas K: a depth difference of more than K x the frame's median modelled\n"
     "  noise (at least the truncation, at most 1 m) between neighbouring pixels is a discontinuity (default\n"
     "  2.83, up to 10; 0: the truncation, as before round 4).\n";
 
@@ -71,7 +77,8 @@ int cmd_fuse_rig(int argc, char** argv) {
                   {"sensors", "extrinsics", "frames", "voxel", "trunc", "volume", "origin", "out", "mesh", "threads",
                    "guess", "sigma-ref", "min-weight", "laser-patch", "laser-offset", "laser-min-eigen", "max-sigma",
                    "min-support", "jump-sigmas"},
-                  {"no-trust", "no-paint", "no-filter", "register-laser", "laser-6dof", "tof-bilateral"}, err) ||
+                  {"no-trust", "no-paint", "no-filter", "register-laser", "laser-6dof", "tof-bilateral", "full-coverage"},
+                  err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse fuse: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
     return 2;
@@ -143,10 +150,15 @@ int cmd_fuse_rig(int argc, char** argv) {
   // samples is noise, not surface (70 % of the ToF-only points lay > 2 mm off the true surface,
   // inside the walls and under the floor): extraction needs both voxels to hold half a full sample.
   // Both need the noise models (with --no-trust every sample is a full one).
+  // Round 5: the support rule's default follows the set (fusion_rules.hpp, evidence rule), decided
+  // after the push from each camera's median noise; --min-support / --full-coverage fix it.
   int min_support = use_trust ? kMinSupportWeight : 0;
   float jump_sigmas = use_trust ? kJumpSigmas : 0.0f;
   if (!args.get_int("min-support", 0, 255, min_support, err) || !args.get_float("jump-sigmas", 0.0f, 10.0f, jump_sigmas, err))
     return fail(err, 2);
+  if (args.has("full-coverage") && args.has("min-support")) return fail("--full-coverage and --min-support exclude each other", 2);
+  if (args.has("full-coverage") && !use_trust) return fail("--full-coverage needs the noise models (not with --no-trust)", 2);
+  const bool support_by_set = use_trust && !args.has("min-support") && !args.has("full-coverage");
   if (jump_sigmas > 0.0f && !use_trust) return fail("--jump-sigmas needs the noise models (not with --no-trust)", 2);
   for (PinholeSlot& c : cams) c.jump_sigmas = jump_sigmas;
 
@@ -224,8 +236,19 @@ int cmd_fuse_rig(int argc, char** argv) {
   pool.stop();
   const double fuse_ms = ms_since(t_start);
 
+  if (support_by_set) {
+    std::vector<float> sigma;
+    for (const PinholeSlot& c : cams) sigma.push_back(c.median_sigma());
+    min_support = default_support_weight(sigma.data(), int(sigma.size()), sigma_ref);
+  }
+  if (use_trust)
+    std::printf("support rule: both voxels of a crossing hold >= %d weight units (%s)\n", min_support,
+                support_by_set ? (min_support == kEvidenceSupportWeight ? "default, evidence rule: mixed sub-unit camera"
+                                                                         : "default")
+                               : (args.has("full-coverage") ? "--full-coverage" : "--min-support"));
   io::PointCloud cloud;
-  const Status xs = core.extract_cloud(cloud, uint8_t(min_support));
+  // Each point carries its evidence (the weaker voxel's weight) as the property / field "support".
+  const Status xs = core.extract_cloud(cloud, uint8_t(min_support), true);
   if (min_weight > 0) {
     // Confidence filter: keep a point only where some of the 8 voxels around it holds at least
     // min_weight (weight units: 1/8 sample x trust), i.e. the surface there is supported by that much data.
@@ -235,11 +258,13 @@ int cmd_fuse_rig(int argc, char** argv) {
       cloud.points[kept] = cloud.points[i];
       cloud.normals[kept] = cloud.normals[i];
       if (!cloud.colours.empty()) cloud.colours[kept] = cloud.colours[i];
+      cloud.support[kept] = cloud.support[i];
       ++kept;
     }
     cloud.points.resize(kept);
     cloud.normals.resize(kept);
     if (!cloud.colours.empty()) cloud.colours.resize(kept);
+    cloud.support.resize(kept);
     cloud.width = int(kept);
   }
   std::size_t coloured = 0;
@@ -251,7 +276,7 @@ int cmd_fuse_rig(int argc, char** argv) {
               out.c_str());
   if (args.has("mesh")) {
     io::PlyMeshCollector mesh;
-    const Status ms = extract_mesh(core.volume, core.buffers.mesh_scratch, mesh);
+    const Status ms = extract_mesh(core.volume, core.buffers.mesh_scratch, mesh, uint8_t(min_support));
     if (ms != Status::kOk || !mesh.write(args.get("mesh"), err))
       return fail("mesh: " + (ms != Status::kOk ? std::string(to_string(ms)) : err));
     std::printf("mesh: %zu vertices -> %s\n", mesh.mesh().vertices.size(), args.get("mesh").c_str());

@@ -55,7 +55,9 @@ const char* kUsage =
     "  first pose from the set, push after 1 cm / 1 deg or with [--push-every-frame]) instead of its ground-truth poses.\n"
     "  --sensors A,B,..: fuse these sensors of a rig set (as `edgefuse fuse --sensors`: pre-filters, noise-model\n"
     "  trust, line scanners) into the one space that is localised in; the viewpoint is the first colour camera's;\n"
-    "  with [--no-filter] [--no-trust] [--min-weight W] (as for `edgefuse fuse`).\n"
+    "  with [--no-filter] [--no-trust] [--min-weight W] (as for `edgefuse fuse`); [--fusion-rules]: also the noise\n"
+    "  rules of `edgefuse fuse --sensors` (depth jump 2.83 sigma, support rule by set; off by default: BENCHMARKS\n"
+    "  \"Multi-sensor fusion, round 5\"), or [--min-support W] [--jump-sigmas K] given alone.\n"
     "  Poses: one line per object `id tx ty tz qx qy qz qw score model` (T_world_object; id = picking rank).\n"
     "  --check-truth (rig sets): also verifies every true object pose of objects.txt (at the truth and after ICP\n"
     "  from it) as a hypothesis would be, to show why a known object is missed.\n"
@@ -97,8 +99,9 @@ int cmd_localize(int argc, char** argv) {
   }
   Args args;
   std::string err;
-  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "config", "seg-smooth", "seg-concave", "seg-radius", "seg-colour", "seg-crease", "seg-crease-radius", "seg-crease-concave", "seg-crease-pairs", "seg-crease-share"},
-                  {"segments", "seg-keep-small", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame", "no-rest-poses"}, err) ||
+  if (!args.parse(int(rest.size()), rest.data(), {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score", "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "config", "seg-smooth", "seg-concave", "seg-radius", "seg-colour", "seg-crease", "seg-crease-radius", "seg-crease-concave", "seg-crease-pairs", "seg-crease-share", "min-support", "jump-sigmas"},
+                  {"segments", "seg-keep-small", "no-walls", "no-filter", "no-trust", "check-truth", "track", "push-every-frame", "no-rest-poses",
+                   "fusion-rules"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse localize: %s\n%s", err.empty() ? "expected one INPUT" : err.c_str(), kUsage);
     return 2;
@@ -227,10 +230,20 @@ int cmd_localize(int argc, char** argv) {
       return 2;
     }
     int min_weight = 0;
-    if (!args.get_int("min-weight", 0, 255, min_weight, err)) {
+    // fusion5: the noise rules of `fuse --sensors` (fusion_rules.hpp), opt-in here.
+    const bool rules = args.has("fusion-rules") && !args.has("no-trust");
+    int min_support = -1;  // -1: by set (with --fusion-rules) or off
+    float jump_sigmas = rules ? kJumpSigmas : 0.0f;
+    if (!args.get_int("min-weight", 0, 255, min_weight, err) || !args.get_int("min-support", 0, 255, min_support, err) ||
+        !args.get_float("jump-sigmas", 0.0f, 10.0f, jump_sigmas, err)) {
       std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
       return 2;
     }
+    if (args.has("no-trust") && (jump_sigmas > 0.0f || args.has("fusion-rules"))) {
+      std::fprintf(stderr, "edgefuse localize: --fusion-rules / --jump-sigmas need the noise models (not with --no-trust)\n");
+      return 2;
+    }
+    for (PinholeSlot& c : rs.cams) c.jump_sigmas = jump_sigmas;
     ImageView<uint16_t> filter_scratch;
     if (!core.init(board, rs.cams[std::size_t(rs.ref)].seq.intr, err) ||
         !bind_rig_sensors(rs, core, board, filter_scratch, err) || !place_rig_volume(rs, fs, err) ||
@@ -262,7 +275,14 @@ int cmd_localize(int argc, char** argv) {
     t_start_proc = cpu_ms(CLOCK_PROCESS_CPUTIME_ID);
     t_start_wall = std::chrono::steady_clock::now();
     const std::size_t cap = std::min<std::size_t>(board.points_max, board.scene_points_max);
-    const Status xs = extract_points(core.volume, buffers.points, cap, surface_count);
+    if (min_support < 0 && rules) {
+      std::vector<float> sigma;
+      for (const PinholeSlot& c : rs.cams) sigma.push_back(c.median_sigma());
+      min_support = default_support_weight(sigma.data(), int(sigma.size()), 0.5f * fs.voxel_m);
+    }
+    if (min_support > 0) std::printf("support rule: both voxels of a crossing hold >= %d weight units\n", min_support);
+    const Status xs = extract_points(core.volume, buffers.points, cap, surface_count,
+                                     uint8_t(min_support > 0 ? min_support : 0));
     if (min_weight > 0) {  // confidence filter (as `edgefuse fuse --min-weight`): drop weakly supported surface
       std::size_t kept = 0;
       for (std::size_t i = 0; i < surface_count; ++i)

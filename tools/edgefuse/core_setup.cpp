@@ -65,7 +65,7 @@ int CoreSetup::hit_percent(const PinholeIntrinsics& intr) const {
   return int(100 * hits / (std::size_t(intr.width) * intr.height));
 }
 
-Status CoreSetup::extract_cloud(io::PointCloud& cloud, uint8_t min_weight) const {
+Status CoreSetup::extract_cloud(io::PointCloud& cloud, uint8_t min_weight, bool with_support) const {
   const uint32_t capacity = build_board().points_max;
   std::size_t count = 0;
   const Status s = extract_points(volume, buffers.points, capacity, count, min_weight);
@@ -75,10 +75,12 @@ Status CoreSetup::extract_cloud(io::PointCloud& cloud, uint8_t min_weight) const
   bool any_colour = false;
   for (std::size_t i = 0; i < count; ++i) any_colour = any_colour || buffers.points[i].colour.a != 0;
   if (any_colour) cloud.colours.reserve(count);
+  if (with_support) cloud.support.reserve(count);
   for (std::size_t i = 0; i < count; ++i) {
     cloud.points.push_back(buffers.points[i].position);
     cloud.normals.push_back(buffers.points[i].normal);
     if (any_colour) cloud.colours.push_back(buffers.points[i].colour);
+    if (with_support) cloud.support.push_back(buffers.points[i].support);
   }
   cloud.width = int(count);
   cloud.height = 1;

@@ -41,7 +41,8 @@ struct CoreSetup {
   int hit_percent(const PinholeIntrinsics& intr) const;
   //! The zero-crossing cloud into the static point buffer, then into `cloud`.
   //! \param cloud output  \param min_weight extract_points' support rule (0: every observed pair)
-  Status extract_cloud(io::PointCloud& cloud, uint8_t min_weight = 0) const;
+  //! \param with_support fill cloud.support (each point's evidence, SurfacePoint::support)
+  Status extract_cloud(io::PointCloud& cloud, uint8_t min_weight = 0, bool with_support = false) const;
 };
 
 //! Places the volume so that its centre is the median of the points the frame sees.

@@ -88,38 +88,17 @@ bool PinholeSlot::stage(std::size_t i, bool filter, bool with_colour, float sigm
         ++gated_pixels;
         depth.at(u, v) = 0;  // a gated pixel carves no free space either
       }
+    // The frame's median noise: the jump rule, and the default support rule of the set.
+    const float sigma_m = median_sigma_m(noise, depth, intr.depth_scale, amp);
+    sigma_sum_m += sigma_m;
+    ++sigma_frames;
     if (jump_sigmas > 0.0f) {
-      // At most 1 m (integration's bound): beyond, every edge would be smeared anyway.
-      frame.jump_m = std::min(1.0f, jump_sigmas * median_sigma_m(noise, depth, intr.depth_scale, amp));
+      frame.jump_m = noise_jump_m(sigma_m, jump_sigmas);
       jump_m_sum += frame.jump_m;
       ++jump_frames;
     }
   }
   return true;
-}
-
-float median_sigma_m(const NoiseModel& noise, ImageView<const uint16_t> depth, float depth_scale,
-                     ImageView<const uint16_t> amplitude) {
-  // Histogram of 0.25 mm bins up to 64 mm (the ToF model caps at 20 mm): a median without sorting.
-  constexpr int kBins = 256;
-  constexpr float kBinM = 0.00025f;
-  std::size_t hist[kBins] = {};
-  std::size_t n = 0;
-  for (int v = 0; v < depth.height; ++v)
-    for (int u = 0; u < depth.width; ++u) {
-      const uint16_t raw = depth.at(u, v);
-      if (raw == 0) continue;
-      const float a = amplitude.empty() ? 0.0f : float(amplitude.at(u, v));
-      const int b = int(noise.sigma_m(float(raw) / depth_scale, a) / kBinM);
-      ++hist[b < 0 ? 0 : (b >= kBins ? kBins - 1 : b)];
-      ++n;
-    }
-  std::size_t seen = 0;
-  for (int b = 0; b < kBins; ++b) {
-    seen += hist[b];
-    if (2 * seen >= n && n > 0) return (float(b) + 0.5f) * kBinM;
-  }
-  return 0.0f;
 }
 
 int frame_near(const io::DepthSequence& seq, double stamp_s) {

@@ -9,6 +9,7 @@
 #include "core_setup.hpp"
 #include "edgefuse/filters/depth_filter_chain.hpp"
 #include "edgefuse/fusion/calibrate_pair.hpp"
+#include "edgefuse/fusion/fusion_rules.hpp"
 #include "edgefuse/io/dataset.hpp"
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/sensor/noise_model.hpp"
@@ -50,24 +51,13 @@ struct PinholeSlot {
   float jump_sigmas = 0.0f;
   double jump_m_sum = 0.0;        //!< sum of the jump_m set (for the report)
   std::size_t jump_frames = 0;    //!< frames it was set for
+  double sigma_sum_m = 0.0;       //!< sum of the staged frames' median modelled noise (with a trust map)
+  std::size_t sigma_frames = 0;   //!< frames summed
+  //! Mean of the staged frames' median noise (0 before any frame with a trust map).
+  float median_sigma() const { return sigma_frames > 0 ? float(sigma_sum_m / double(sigma_frames)) : 0.0f; }
 };
 
-//! Defaults of multi-sensor fusion's noise handling (BENCHMARKS "Multi-sensor fusion, round 4").
-//! Depth discontinuity = 2 sqrt(2) sigma: two standard deviations of the difference of two
-//! pixels' noise, so that noise alone is rarely taken for a depth edge (the truncation stays the
-//! floor: the Xtion's 1.4 mm gives 4 mm < 8 mm, unchanged). Real edges above 5.7 pixel footprints
-//! are cut by the jumping-edge filter before integration.
-inline constexpr float kJumpSigmas = 2.83f;
-//! Support rule of extraction, in weight units (1/8 of a full-trust sample): half a full sample,
-//! i.e. one Xtion frame at 0.7 m (trust 0.51) or four sub-unit (ToF) samples, which average a
-//! pixel noise up to the truncation (8 mm) down to trunc/2, the noise a truncated band can hold.
-inline constexpr int kMinSupportWeight = 4;
-
-//! Median modelled noise of a depth image's valid pixels (0.25 mm resolution; 0 without pixels).
-//! \param noise the sensor's noise model  \param depth raw depth  \param depth_scale raw per metre
-//! \param amplitude ToF amplitude of the same size, or empty
-float median_sigma_m(const NoiseModel& noise, ImageView<const uint16_t> depth, float depth_scale,
-                     ImageView<const uint16_t> amplitude);
+// The noise rules' constants and median_sigma_m: edgefuse/fusion/fusion_rules.hpp (shared with edgefused).
 
 //! Index of the frame of `seq` whose stamp is nearest to stamp_s (within 0.02 s), or -1.
 int frame_near(const io::DepthSequence& seq, double stamp_s);

@@ -42,6 +42,10 @@ struct CameraStream {
   uint32_t skipped = 0;                   //!< held frames replaced before they were processed
   uint32_t integrated = 0;                //!< frames integrated into the map
   uint32_t unpaired = 0;                  //!< no reference pose within the pairing window
+  double sigma_sum_m = 0.0;               //!< sum of the fused frames' median modelled noise (fusion rules)
+  uint32_t sigma_frames = 0;              //!< frames summed
+  //! Mean median noise of the fused frames (0 before any).
+  float median_sigma() const { return sigma_frames > 0 ? float(sigma_sum_m / double(sigma_frames)) : 0.0f; }
 
   // Slot of the board's per-sensor buffers.
   ImageView<real_t> ray_norms;

@@ -16,6 +16,7 @@
 #include "edgefuse/io/board_hal.hpp"
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/link/messages.hpp"
+#include "edgefuse/fusion/fusion_rules.hpp"
 #include "edgefuse/tsdf/extract.hpp"
 #include "edgefuse/tsdf/integrate_profile.hpp"
 #include "hal/posix/monotonic_clock.hpp"
@@ -483,6 +484,7 @@ void FusionPipeline::process_reference(uint64_t now_us) {
       return;
     }
     f.trust = ref.trust;
+    apply_noise_jump(ref, f, frame);
   }
 
   Pose T;
@@ -613,6 +615,7 @@ void FusionPipeline::process_other(CameraStream& c) {
     return;
   }
   f.trust = c.trust;
+  apply_noise_jump(c, f, frame);
   const Pose T = ref_pose_ * c.T_ref_cam;
   if (integrate_parallel<real_t>(pool_, core_.volume, c.intr, c.ray_norms, f, T, c.scratch) != Status::kOk) {
     ++pipeline_drops_;
@@ -622,6 +625,25 @@ void FusionPipeline::process_other(CameraStream& c) {
   ++c.integrated;
   ++map_frames_;
   view_sum_ += T.t;
+}
+
+// The noise rules of `edgefuse fuse --sensors` (fusion_rules.hpp), shared code: the depth-jump
+// limit follows the frame's median modelled noise; the median is also kept per camera for the
+// support rule of extraction (map_support_weight()).
+void FusionPipeline::apply_noise_jump(CameraStream& c, DepthFrame& f, const hal::DepthFrame& frame) {
+  const float sigma_m = median_sigma_m(c.noise, f.depth, c.intr.depth_scale, frame.amplitude_view());
+  c.sigma_sum_m += sigma_m;
+  ++c.sigma_frames;
+  f.jump_m = noise_jump_m(sigma_m, kJumpSigmas);
+}
+
+uint8_t FusionPipeline::map_support_weight() const {
+  if (!use_trust_) return 0;  // one camera, equal weights: every observed crossing, as before
+  float sigma[kCamerasMax] = {};
+  for (int k = 0; k < fuse_count_; ++k) {
+    sigma[k] = cams_[order_[k]].median_sigma();
+  }
+  return default_support_weight(sigma, fuse_count_, 0.5f * fuse_.voxel_m);
 }
 
 // A new map is centred on the median of what its first frame sees (the bin), as `edgefuse fuse`
@@ -705,7 +727,7 @@ void FusionPipeline::run_localization() {
   const BoardCapacities& board = build_board();
   std::size_t surface = 0;
   const std::size_t cap = std::min<std::size_t>(board.points_max, board.scene_points_max);
-  const Status xs = extract_points(core_.volume, core_.buffers.points, cap, surface);
+  const Status xs = extract_points(core_.volume, core_.buffers.points, cap, surface, map_support_weight());
   SceneContext ctx;
   ctx.viewpoint_m = map_frames_ > 0 ? Vec3f(view_sum_ / float(map_frames_)) : Vec3f::Zero();
   // Grid cell 3.5 voxels: as edgefuse localize (measured fastest on bin_rig_a, same poses).

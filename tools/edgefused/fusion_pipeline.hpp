@@ -115,6 +115,9 @@ class FusionPipeline final : public runtime::Pipeline {
   const CameraStream& camera_stream(int i) const { return cams_[i]; }
   //! The line scanner's stream (name "" without one).
   const ScannerStream& scanner_stream() const { return scanner_; }
+  //! Support rule of the map's extraction (fusion_rules.hpp, as `edgefuse fuse --sensors` for the
+  //! fused cameras' median noise so far): 0 for one camera without a scanner (equal weights).
+  uint8_t map_support_weight() const;
 
   //! Largest stamp difference between a camera's frame and the reference frame whose pose it takes.
   static constexpr uint64_t kPairWindowUs = 40000;
@@ -123,6 +126,9 @@ class FusionPipeline final : public runtime::Pipeline {
   static constexpr int kCamerasMax = 3;
   void process_reference(uint64_t now_us);
   void process_other(CameraStream& c);
+  //! fusion5: sets f.jump_m from the frame's median noise (fusion_rules.hpp) and records the median.
+  //! \param c the camera  \param f its staged frame  \param frame the held HAL frame (amplitude)
+  void apply_noise_jump(CameraStream& c, DepthFrame& f, const hal::DepthFrame& frame);
   void process_profile(const hal::LineProfile& p);
   void drain_profiles();
   void update_mounts();

@@ -22,9 +22,9 @@ uint32_t pack(const Rgba8& c) {
 bool write_impl(const std::string& path, const PointCloud& cloud, PcdEncoding enc, std::string& err) {
   const std::size_t n = cloud.points.size();
   if ((!cloud.normals.empty() && cloud.normals.size() != n) || (!cloud.colours.empty() && cloud.colours.size() != n) ||
-      (!cloud.labels.empty() && cloud.labels.size() != n)) {
-    err = format("%s: %zu points but %zu normals, %zu colours, %zu labels", path.c_str(), n, cloud.normals.size(),
-                 cloud.colours.size(), cloud.labels.size());
+      (!cloud.labels.empty() && cloud.labels.size() != n) || (!cloud.support.empty() && cloud.support.size() != n)) {
+    err = format("%s: %zu points but %zu normals, %zu colours, %zu labels, %zu support values", path.c_str(), n,
+                 cloud.normals.size(), cloud.colours.size(), cloud.labels.size(), cloud.support.size());
     return false;
   }
   std::size_t w = std::size_t(cloud.width), h = std::size_t(cloud.height);
@@ -37,11 +37,13 @@ bool write_impl(const std::string& path, const PointCloud& cloud, PcdEncoding en
     return false;
   }
   const bool has_n = !cloud.normals.empty(), has_c = !cloud.colours.empty(), has_l = !cloud.labels.empty();
+  const bool has_s = !cloud.support.empty();
   // Per-field: name, SIZE, TYPE (all COUNT 1).
   std::string fields = "x y z", sizes = "4 4 4", types = "F F F", counts = "1 1 1";
   if (has_n) fields += " normal_x normal_y normal_z", sizes += " 4 4 4", types += " F F F", counts += " 1 1 1";
   if (has_c) fields += " rgba", sizes += " 4", types += " U", counts += " 1";
   if (has_l) fields += " label", sizes += " 4", types += " U", counts += " 1";
+  if (has_s) fields += " support", sizes += " 4", types += " U", counts += " 1";
   const char* data_name = enc == PcdEncoding::kAscii ? "ascii" : enc == PcdEncoding::kBinary ? "binary" : "binary_compressed";
   std::string s = "# .PCD v0.7 - Point Cloud Data file format (written by edgefuse)\nVERSION 0.7\n";
   s += "FIELDS " + fields + "\nSIZE " + sizes + "\nTYPE " + types + "\nCOUNT " + counts + "\n";
@@ -54,13 +56,14 @@ bool write_impl(const std::string& path, const PointCloud& cloud, PcdEncoding en
       if (has_n) s += format(" %.9g %.9g %.9g", cloud.normals[i].x(), cloud.normals[i].y(), cloud.normals[i].z());
       if (has_c) s += format(" %u", unsigned(pack(cloud.colours[i])));
       if (has_l) s += format(" %u", unsigned(cloud.labels[i]));
+      if (has_s) s += format(" %u", unsigned(cloud.support[i]));
       s += '\n';
     }
     return detail::write_file(path, s.data(), s.size(), err);
   }
 
   // Values as columns (field-major); the binary encoding interleaves them per point below.
-  const std::size_t nf = 3 + (has_n ? 3 : 0) + (has_c ? 1 : 0) + (has_l ? 1 : 0);
+  const std::size_t nf = 3 + (has_n ? 3 : 0) + (has_c ? 1 : 0) + (has_l ? 1 : 0) + (has_s ? 1 : 0);
   std::vector<unsigned char> cols(n * nf * 4);
   auto put = [&](std::size_t field, std::size_t i, uint32_t bits) { detail::store_le(&cols[(field * n + i) * 4], bits, 4); };
   auto fbits = [](float f) {
@@ -75,6 +78,7 @@ bool write_impl(const std::string& path, const PointCloud& cloud, PcdEncoding en
       for (int k = 0; k < 3; ++k) put(f++, i, fbits(cloud.normals[i][k]));
     if (has_c) put(f++, i, pack(cloud.colours[i]));
     if (has_l) put(f++, i, cloud.labels[i]);
+    if (has_s) put(f++, i, cloud.support[i]);
   }
   if (enc == PcdEncoding::kBinary) {
     const std::size_t o = s.size();

@@ -109,6 +109,7 @@ struct Body {
   std::vector<Vec3f> points, normals;
   std::vector<Rgba8> colours;
   std::vector<uint32_t> labels;
+  std::vector<uint8_t> support;
   std::vector<std::array<uint32_t, 3>> triangles;
   bool has_vertex = false;
 };
@@ -187,7 +188,7 @@ class Reader {
     const int x = idx("x"), y = idx("y"), z = idx("z");
     const int nx = idx("nx"), ny = idx("ny"), nz = idx("nz");
     const int r = idx("red", "diffuse_red"), g = idx("green", "diffuse_green"), b = idx("blue", "diffuse_blue");
-    const int a = idx("alpha"), label = idx("label");
+    const int a = idx("alpha"), label = idx("label"), sup = idx("support");
     if (x < 0 || y < 0 || z < 0) {
       err_ = path_ + ": element 'vertex' lacks scalar x, y and z properties";
       return false;
@@ -199,6 +200,7 @@ class Reader {
     out.normals.resize(has_n ? n : 0);
     out.colours.resize(has_c ? n : 0);
     out.labels.resize(has_l ? n : 0);
+    out.support.resize(sup >= 0 ? n : 0);
     std::vector<double> val(e.props.size());
     for (std::size_t k = 0; k < n; ++k) {
       for (std::size_t i = 0; i < e.props.size(); ++i) {
@@ -225,6 +227,10 @@ class Reader {
       if (has_l) {
         const double l = val[std::size_t(label)];
         out.labels[k] = (l > 0 && l < 4294967296.0) ? uint32_t(l) : 0;
+      }
+      if (sup >= 0) {
+        const double s = val[std::size_t(sup)];
+        out.support[k] = s > 0 ? (s < 255 ? uint8_t(s + 0.5) : uint8_t(255)) : uint8_t(0);
       }
     }
     return true;
@@ -311,6 +317,7 @@ bool read_ply(const std::string& path, PointCloud& cloud, std::string& err) {
     out.normals.swap(b.normals);
     out.colours.swap(b.colours);
     out.labels.swap(b.labels);
+    out.support.swap(b.support);
     cloud = std::move(out);
     return true;
   });

@@ -15,6 +15,10 @@ struct SurfacePoint {
   Vec3f position;  //!< world frame, metres
   Vec3f normal;    //!< unit, pointing out of the surface (towards free space)
   Rgba8 colour;    //!< a = 0: never seen in colour
+  //! Evidence of the point: the weight of the weaker of its crossing's two voxels (units of
+  //! volume.hpp: 8 = one sample at the trust reference noise; sigma_eff ~ sigma_ref sqrt(8 / support)
+  //! for samples of at least one unit, see fusion/fusion_rules.hpp for sub-unit ones).
+  uint8_t support = 0;
 };
 
 //! Every zero crossing of the TSDF along the voxel grid's x, y and z edges (both voxels observed,
@@ -50,6 +54,9 @@ struct MeshScratch {
 
 //! Marching cubes over the observed cells (all 8 corners observed); vertices are shared between
 //! neighbouring cells, normals from the TSDF gradient, colour interpolated.
-Status extract_mesh(const TsdfVolume& volume, MeshScratch scratch, MeshSink& sink);
+//! \param volume the space  \param scratch two z-slices of vertex ids  \param sink receives the mesh
+//! \param min_weight support rule of extract_points: a cell is polygonised only when both voxels of
+//!        each of its crossing edges hold at least this weight; 0 or 1: every observed cell.
+Status extract_mesh(const TsdfVolume& volume, MeshScratch scratch, MeshSink& sink, uint8_t min_weight = 0);
 
 }  // namespace edgefuse

@@ -20,6 +20,9 @@ struct PointCloud {
   std::vector<Vec3f> normals;
   std::vector<Rgba8> colours;  //!< a = 0: never seen in colour (PCD "rgb" fields read as a = 255)
   std::vector<uint32_t> labels;
+  //! Per-point evidence (fused clouds: SurfacePoint::support, weight units), or empty. PLY property
+  //! "support" (uchar), PCD field "support" (U 4).
+  std::vector<uint8_t> support;
 
   bool organised() const { return height > 1; }
   std::size_t size() const { return points.size(); }
