@@ -182,6 +182,9 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   CHECK_TRUE(step_frames(*p, 4));
   edgefuse_test::alloc_count_start();
   CHECK_TRUE(step_frames(*p, 10));
+  // A ToF frame enters the map only when it pairs with an xtion frame (40 ms window); a starved
+  // ToF worker (load ~10 on 2 cores) can miss the first pairings, so give it up to 30 more frames.
+  for (int extra = 0; extra < 30 && p->camera_stream(1).integrated < 2; ++extra) CHECK_TRUE(step_frames(*p, 1));
   CHECK_EQUAL(0L, edgefuse_test::alloc_count());
   CHECK_TRUE(p->camera_stream(1).integrated >= 2);
   // fusion5: the map takes the rules of `edgefuse fuse --sensors` (fusion_rules.hpp): each fused
@@ -195,7 +198,11 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   // The tof's newest frame against the map (the sim rig sways slowly: within the pairing window).
   runtime::PairCalibrationReport r;
   bool ok = false;
-  for (int attempt = 0; attempt < 20 && !ok; ++attempt) {
+  // A command averages the frames that arrive within a second of each other; on a starved machine
+  // (load ~10 on 2 cores) the reference's next frame can come later and one command then reports a
+  // single frame. That is the product's behaviour ("average what there is"), so the test asks
+  // again until a command has averaged at least two.
+  for (int attempt = 0; attempt < 20 && !(ok && r.frames >= 2); ++attempt) {
     step_for(*p, 30);
     ok = p->calibrate_pair("xtion", "tof", r, &why);
   }
