@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <type_traits>
 
 #include "kernel_math.hpp"
@@ -240,6 +241,34 @@ bool sample_tsdf(const TsdfVolume& volume, const Vec3f& p_world, float& d_m) {
 
 namespace {
 
+namespace cell_lanes {
+// GCC vector extensions (SSE2 on x86-64, NEON on aarch64, scalar code elsewhere), as in
+// row_projection.hpp: the float build converts and interpolates a cell's corners 4 lanes at once.
+typedef float F4 __attribute__((vector_size(16)));
+typedef int32_t I4 __attribute__((vector_size(16)));
+typedef int16_t S8 __attribute__((vector_size(16)));
+typedef uint64_t U2 __attribute__((vector_size(16)));
+}  // namespace cell_lanes
+
+// The 8 corner values of one trilinear cell as the march reads them (corner i: +x for bit 0, +y
+// for bit 1, +z for bit 2). The sample that finds a crossing keeps its cell's values: the first
+// regula-falsi sample usually falls into the same cell and reuses them (no address, loads,
+// unobserved test or conversions).
+template <class Real>
+struct CellCorners {
+  uint32_t base;  // linear index of the cell's base voxel (identifies the cell)
+  bool observed;  // no corner is kTsdfUnobserved (c is valid only then)
+  Real c[8];      // Q16.16 fractions of trunc, corner order
+};
+// The float build keeps the stored integers as floats (scaled once after the lerps), as the
+// 4-lane vectors the x lerp takes: corners 0, 2, 4, 6 and 1, 3, 5, 7.
+template <>
+struct CellCorners<float> {
+  uint32_t base;
+  bool observed;
+  cell_lanes::F4 x0, x1;
+};
+
 // One ray being marched: everything the march needs between two samples.
 template <class Real>
 struct RayState {
@@ -362,37 +391,78 @@ class RayMarcher {
       return floor_int(v);
     }
   }
-  // Trilinear TSDF (fraction of trunc) of the cell at `a` with offsets fx, fy, fz; false when a
-  // corner is unobserved. The same arithmetic as TsdfSampler::sample.
-  bool trilinear(const CellAddress& a, Real fx, Real fy, Real fz, Real& out) const {
+  // Reads the 8 corners of the cell at `a` into `out`.
+  const CellCorners<Real>& load_corners(const CellAddress& a, CellCorners<Real>& out) const {
     const uint32_t i0 = a.base, i1 = i0 + a.dx, i2 = i0 + a.dy, i3 = i2 + a.dx;
     const uint32_t i4 = i0 + a.dz, i5 = i4 + a.dx, i6 = i4 + a.dy, i7 = i6 + a.dx;
-    const int16_t q[8] = {tsdf_[i0], tsdf_[i1], tsdf_[i2], tsdf_[i3], tsdf_[i4], tsdf_[i5], tsdf_[i6], tsdf_[i7]};
-    // kTsdfUnobserved is the smallest int16: one test on the minimum.
-    int16_t lowest = q[0];
-    for (int i = 1; i < 8; ++i) lowest = q[i] < lowest ? q[i] : lowest;
-    if (lowest == kTsdfUnobserved) return false;
-    Real c[8];
+    out.base = a.base;
     if constexpr (std::is_same<Real, float>::value) {
-      // Interpolate the stored integers and scale once: scaling by a power of two commutes
-      // exactly with the lerps, so the value is bit-identical to scaling each corner first.
-      for (int i = 0; i < 8; ++i) c[i] = float(q[i]);
+      using namespace cell_lanes;
+      // The 4 x-pairs (corner 2j, 2j + 1) as 32-bit lanes, low half the first (little endian:
+      // x86-64, aarch64, armhf). Inside a brick the pair is adjacent in memory: one load.
+      I4 pairs;
+      if (a.dx == 1u) {
+        int32_t w0, w1, w2, w3;
+        std::memcpy(&w0, tsdf_ + i0, 4);
+        std::memcpy(&w1, tsdf_ + i2, 4);
+        std::memcpy(&w2, tsdf_ + i4, 4);
+        std::memcpy(&w3, tsdf_ + i6, 4);
+        pairs = I4{w0, w1, w2, w3};
+      } else {
+        const uint16_t* t = reinterpret_cast<const uint16_t*>(tsdf_);
+        pairs = I4{int32_t(uint32_t(t[i0]) | uint32_t(t[i1]) << 16), int32_t(uint32_t(t[i2]) | uint32_t(t[i3]) << 16),
+                   int32_t(uint32_t(t[i4]) | uint32_t(t[i5]) << 16), int32_t(uint32_t(t[i6]) | uint32_t(t[i7]) << 16)};
+      }
+      // kTsdfUnobserved in any of the 8 int16 lanes: one compare, the 16 mask bytes ORed.
+      const S8 unobserved = S8(pairs) == S8{kTsdfUnobserved, kTsdfUnobserved, kTsdfUnobserved, kTsdfUnobserved,
+                                    kTsdfUnobserved, kTsdfUnobserved, kTsdfUnobserved, kTsdfUnobserved};
+      const U2 m = U2(unobserved);
+      out.observed = (m[0] | m[1]) == 0;
+      if (out.observed) {
+        out.x0 = __builtin_convertvector((pairs << 16) >> 16, F4);  // even corners, sign-extended
+        out.x1 = __builtin_convertvector(pairs >> 16, F4);          // odd corners
+      }
     } else {
-      for (int i = 0; i < 8; ++i) c[i] = tsdf_fraction(Real(), q[i]);
+      const int16_t q[8] = {tsdf_[i0], tsdf_[i1], tsdf_[i2], tsdf_[i3], tsdf_[i4], tsdf_[i5], tsdf_[i6], tsdf_[i7]};
+      // kTsdfUnobserved is the smallest int16: one test on the minimum.
+      int16_t lowest = q[0];
+      for (int i = 1; i < 8; ++i) lowest = q[i] < lowest ? q[i] : lowest;
+      out.observed = lowest != kTsdfUnobserved;
+      if (out.observed)
+        for (int i = 0; i < 8; ++i) out.c[i] = tsdf_fraction(Real(), q[i]);
     }
-    const Real c00 = c[0] + (c[1] - c[0]) * fx, c10 = c[2] + (c[3] - c[2]) * fx;
-    const Real c01 = c[4] + (c[5] - c[4]) * fx, c11 = c[6] + (c[7] - c[6]) * fx;
-    const Real c0 = c00 + (c10 - c00) * fy, c1 = c01 + (c11 - c01) * fy;
-    out = c0 + (c1 - c0) * fz;
-    if constexpr (std::is_same<Real, float>::value) out *= 1.0f / 32768.0f;
-    return true;
+    return out;
   }
-  // Trilinear TSDF at grid point g (refinement samples).
-  bool sample(const Real g[3], Real& out) const {
+  // Trilinear TSDF (fraction of trunc) of an observed cell at offsets fx, fy, fz: the arithmetic of
+  // TsdfSampler::sample (in float on the stored integers, scaled once: scaling by a power of two
+  // commutes exactly with the lerps, so the value is bit-identical to scaling each corner first).
+  static Real lerp_cell(const CellCorners<Real>& k, Real fx, Real fy, Real fz) {
+    if constexpr (std::is_same<Real, float>::value) {
+      using namespace cell_lanes;
+      // Lanes: (c00, c10, c01, c11) = the x lerps of corner pairs (0,1), (2,3), (4,5), (6,7).
+      const F4 x = k.x0 + (k.x1 - k.x0) * fx;
+      const float c0 = x[0] + (x[1] - x[0]) * fy, c1 = x[2] + (x[3] - x[2]) * fy;
+      return (c0 + (c1 - c0) * fz) * (1.0f / 32768.0f);
+    } else {
+      const Real* c = k.c;
+      const Real c00 = c[0] + (c[1] - c[0]) * fx, c10 = c[2] + (c[3] - c[2]) * fx;
+      const Real c01 = c[4] + (c[5] - c[4]) * fx, c11 = c[6] + (c[7] - c[6]) * fx;
+      const Real c0 = c00 + (c10 - c00) * fy, c1 = c01 + (c11 - c01) * fy;
+      return c0 + (c1 - c0) * fz;
+    }
+  }
+  // Trilinear TSDF at grid point g (refinement samples); false when a corner is unobserved.
+  // `known` is a cell already read: reused when g falls into it.
+  bool sample(const Real g[3], const CellCorners<Real>& known, Real& out) const {
     const int cell[3] = {march_cell(g[0]), march_cell(g[1]), march_cell(g[2])};
     if (!in_grid(cell)) return false;
-    return trilinear(address(cell), g[0] - real_from_int<Real>(cell[0]), g[1] - real_from_int<Real>(cell[1]),
-                     g[2] - real_from_int<Real>(cell[2]), out);
+    const uint32_t base = base_index(cell);
+    CellCorners<Real> read;
+    const CellCorners<Real>* k = base == known.base ? &known : &load_corners(address(cell, base), read);
+    if (!k->observed) return false;
+    out = lerp_cell(*k, g[0] - real_from_int<Real>(cell[0]), g[1] - real_from_int<Real>(cell[1]),
+                    g[2] - real_from_int<Real>(cell[2]));
+    return true;
   }
 
   // One sample of the march (or the refinement of a crossing, which ends it).
@@ -453,12 +523,14 @@ class RayMarcher {
       r.t += r.far_step;
       return MarchResult::kGoing;
     }
-    Real s;
-    if (!trilinear(a, fx, fy, fz, s)) {
+    CellCorners<Real> k;
+    load_corners(a, k);
+    if (!k.observed) {
       r.t += r.half_trunc;  // another corner is unobserved: as above
       r.prev_valid = false;
       return MarchResult::kGoing;
     }
+    const Real s = lerp_cell(k, fx, fy, fz);
     if (r.prev_valid && r.prev_s > zero && !(s > zero)) {
       // Zero crossing between prev_t and t: regula falsi on the trilinear field.
       Real ta = r.prev_t, sa = r.prev_s, tb = r.t, sb = s;
@@ -466,7 +538,7 @@ class RayMarcher {
         const Real tm = ta + (tb - ta) * (sa / (sa - sb));
         const Real gm[3] = {f_.g0[0] + tm * gd[0], f_.g0[1] + tm * gd[1], f_.g0[2] + tm * gd[2]};
         Real sm;
-        if (!sample(gm, sm)) break;
+        if (!sample(gm, k, sm)) break;
         if constexpr (std::is_same<Real, float>::value) {
           // Done when the next secant correction, |sm| / slope, is under 1/200 voxel (on a plane
           // the first secant lands on the surface; the remaining iterations would only repeat it).
