@@ -26,7 +26,7 @@ namespace raycast_bounds {
 
 //! Quantisation of z-depth (max_range_m maps to kTop steps).
 struct Quant {
-  static constexpr int32_t kTop = 65534;
+  static constexpr int32_t kTop = 65000;  // the halves stay below kEmpty
   float unit_m = 0.0f;    //!< metres per step
   float inv_unit = 0.0f;  //!< steps per metre
   //! \param max_range_m the sensor's farthest z-depth (no bound needs more)
@@ -46,8 +46,8 @@ struct Quant {
   }
 };
 
-//! Both halves of a pixel that no block covers.
-inline constexpr int16_t kEmpty = 32767;
+//! Both halves of a pixel that no block covers (a byte pattern: clear() is a memset).
+inline constexpr int16_t kEmpty = 0x7F7F;
 //! The near half of a step count (0..kTop), and the far half.
 inline int16_t near_half(int32_t near_q) { return int16_t(near_q - 32768); }
 inline int16_t far_half(int32_t far_q) { return int16_t(32767 - far_q); }
@@ -59,8 +59,7 @@ using alias_i16 = int16_t __attribute__((__may_alias__));
 //! Sets every pixel of the depth map to "no bound".
 inline void clear(const ImageView<float>& depth) {
   for (int v = 0; v < depth.height; ++v) {
-    alias_i16* row = reinterpret_cast<alias_i16*>(depth.row(v));
-    for (int k = 0; k < 2 * depth.width; ++k) row[k] = kEmpty;
+    std::memset(depth.row(v), 0x7F, sizeof(float) * std::size_t(depth.width));
   }
 }
 
@@ -212,15 +211,21 @@ class Splatter {
   //! \param sides the brick's front and back blocks (bit (z/2)*16 + (y/2)*4 + x/2)
   //! \param c0 sensor-frame centre of the brick's block (0, 0, 0)
   void brick(const Sides& sides, const Vec3f& c0) const {
-    footprints(sides, c0);
+    float r_u, r_v;
+    if (dilate_ && brick_radius(c0, r_u, r_v)) {
+      centres(sides, c0, r_u, r_v);
+    } else {
+      footprints(sides, c0);
+    }
   }
 
  private:
-  // True when every block of the brick is in front of the sensor and its footprint lies within
-  // kDilate pixels of the pixel nearest to its projected centre. For a point q of the sphere
-  // around c, |q_x / q_z - c_x / c_z| <= r sqrt(1 + (c_x / c_z)^2) / (c_z - r) (Cauchy-Schwarz on
-  // (q - c)); bounded over the brick by its block centres' smallest z and largest |x|, |y|.
-  bool fits_dilation(const Vec3f& c0) const {
+  // One footprint radius in pixels (r_u, r_v) around the projected centre for every block of the
+  // brick; false when a block may be near or behind the sensor plane (then each block's own
+  // footprint). For a point q of the sphere around c, |q_x / q_z - c_x / c_z| <= r sqrt(1 +
+  // (c_x / c_z)^2) / (c_z - r) (Cauchy-Schwarz on q - c); over the brick it is bounded with the
+  // block centres' smallest z and largest |x|, |y| (the lattice's extreme corners).
+  bool brick_radius(const Vec3f& c0, float& r_u, float& r_v) const {
     float lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
       lo[a] = hi[a] = c0(a);
@@ -230,35 +235,55 @@ class Splatter {
       }
     }
     const float z_min = lo[2] - reach_m_;
-    if (!(z_min > 1e-3f)) return false;
+    if (!(z_min > 0.05f * lo[2])) return false;  // near the sensor: footprints grow fast
     const float ax = std::max(-lo[0], hi[0]) / lo[2], ay = std::max(-lo[1], hi[1]) / lo[2];
-    const float r_u = intr_.fx * reach_m_ * std::sqrt(1.0f + ax * ax) / z_min;
-    const float r_v = intr_.fy * reach_m_ * std::sqrt(1.0f + ay * ay) / z_min;
-    const float limit = float(kDilate) - 0.5f - 0.01f;  // rounding to the nearest pixel, projection
-    return r_u <= limit && r_v <= limit;
+    const float s = reach_m_ / z_min;
+    r_u = intr_.fx * s * std::sqrt(1.0f + ax * ax);
+    r_v = intr_.fy * s * std::sqrt(1.0f + ay * ay);
+    return r_u <= float(kDilate + 1) && r_v <= float(kDilate + 1);
   }
 
-  // The fast path: one pixel per block (the nearest to its projected centre, clamped into the
-  // image: that only brings it closer to the covered pixels there).
-  void points(const Sides& sides, const Vec3f& c0) const {
+  // The fast path: the brick's radius around each block's projected centre, written shrunk by
+  // kDilate (dilate() widens it back).
+  void centres(const Sides& sides, const Vec3f& c0, float r_u, float r_v) const {
     const int w = intr_.width, h = intr_.height;
+    const float eps_px = 0.01f;  // rounding of the projection
+    // floor(u - r) + 1 and floor(u + r) with the shift of floor_px folded into the offsets.
+    const float off_u0 = intr_.cx - r_u - eps_px + kShift, off_u1 = intr_.cx + r_u + eps_px + kShift;
+    const float off_v0 = intr_.cy - r_v - eps_px + kShift, off_v1 = intr_.cy + r_v + eps_px + kShift;
     uint64_t mask = sides.front | sides.back;
     while (mask != 0) {
       const int bit = __builtin_ctzll(mask);
       mask &= mask - 1;
-      const float x = c0.x() + ox_[bit], y = c0.y() + oy_[bit], z = c0.z() + oz_[bit];
+      const float z = c0.z() + oz_[bit];
       const float inv = 1.0f / z;
-      const int pu = floor_px(intr_.fx * x * inv + intr_.cx + 0.5f);
-      const int pv = floor_px(intr_.fy * y * inv + intr_.cy + 0.5f);
-      if (pu < -kDilate || pv < -kDilate || pu >= w + kDilate || pv >= h + kDilate) continue;
+      const float pu = intr_.fx * (c0.x() + ox_[bit]) * inv, pv = intr_.fy * (c0.y() + oy_[bit]) * inv;
+      // Sensor-frame x / z is bounded by the brick's corners, so pu, pv stay far from the
+      // conversion's limits only once clamped.
+      int iu0 = int(clamp_px(pu + off_u0)) - (kIShift - 1), iu1 = int(clamp_px(pu + off_u1)) - kIShift;
+      int iv0 = int(clamp_px(pv + off_v0)) - (kIShift - 1), iv1 = int(clamp_px(pv + off_v1)) - kIShift;
+      if (iu1 < 0 || iv1 < 0 || iu0 >= w || iv0 >= h) continue;
       const int16_t nh = (sides.front >> bit) & 1u ? near_half(q_.floor_q(z - reach_m_)) : kEmpty;
       const int16_t fh = (sides.back >> bit) & 1u ? far_half(q_.ceil_q(z + reach_m_)) : kEmpty;
-      alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(std::min(std::max(pv, 0), h - 1))) +
-                     2 * std::min(std::max(pu, 0), w - 1);
-      p[0] = p[0] < nh ? p[0] : nh;
-      p[1] = p[1] < fh ? p[1] : fh;
+      shrink(iu0, iu1);
+      shrink(iv0, iv1);
+      merge_small(clamp(iu0, w), clamp(iu1, w), clamp(iv0, h), clamp(iv1, h), nh, fh);
     }
   }
+
+  // A merge of at most a few pixels (the loops are too short for vector set-up to pay).
+  void merge_small(int u0, int u1, int v0, int v1, int16_t nh, int16_t fh) const {
+    for (int v = v0; v <= v1; ++v) {
+      alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(v)) + 2 * u0;
+      for (int n = u1 - u0; n >= 0; --n, p += 2) {
+        p[0] = p[0] < nh ? p[0] : nh;
+        p[1] = p[1] < fh ? p[1] : fh;
+      }
+    }
+  }
+  static constexpr float kShift = 4096.0f;
+  static constexpr int kIShift = 4096;
+  static float clamp_px(float x) { return std::min(std::max(x, 0.0f), 16384.0f); }
 
   // The general path: each block's whole footprint (near the sensor, or without dilation).
   void footprints(const Sides& sides, const Vec3f& c0) const {
@@ -295,15 +320,8 @@ class Splatter {
         shrink(iu0, iu1);
         shrink(iv0, iv1);
       }
-      const int u0 = clamp(iu0, intr_.width), u1 = clamp(iu1, intr_.width);
-      const int v0 = clamp(iv0, intr_.height), v1 = clamp(iv1, intr_.height);
-      if (u0 == u1 && v0 == v1) {  // the common case with dilation: no loop set-up
-        alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(v0)) + 2 * u0;
-        p[0] = p[0] < nh ? p[0] : nh;
-        p[1] = p[1] < fh ? p[1] : fh;
-      } else {
-        merge_rect(depth_, u0, u1, v0, v1, nh, fh);
-      }
+      merge_rect(depth_, clamp(iu0, intr_.width), clamp(iu1, intr_.width), clamp(iv0, intr_.height),
+                 clamp(iv1, intr_.height), nh, fh);
     }
   }
 
