@@ -232,8 +232,9 @@ class RayMarcher {
         quant_(intr.max_range_m), last_(uint32_t(volume.dim() - 1)),
         nb_(uint32_t(volume.bricks_per_axis())), nb2_(nb_ * nb_), dy_wrap_(nb_ * kBrickVoxels - 56u),
         dz_wrap_(nb2_ * kBrickVoxels - 448u),
-        // The positive band in front of a surface has |tsdf| < 1, so it belongs to surface bricks
-        // too: starting at the tiles' near bound still leaves a positive sample before every crossing.
+        // A voxel of slack around the pixel's range (raycast_bounds.hpp), which is exact only up
+        // to float rounding; the marked positive band in front of a surface lies inside the range,
+        // so the march still meets a positive sample before every crossing.
         margin_(real_from<Real>(volume.voxel_m())),
         want_vertex_(!maps.vertex.empty()), want_normal_(!maps.normal.empty()), clear_colour_(!maps.colour.empty()),
         want_colour_(!maps.colour.empty() && volume.has_colour()) {
