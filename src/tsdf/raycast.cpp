@@ -144,7 +144,7 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
   if (!scratch.fits(intr.width, intr.height)) return Status::kCapacityExceeded;
   if (volume.dim() > kRaycastDimMax) return Status::kCapacityExceeded;
 
-  (void)scratch;  // the bounds live in the depth map itself (raycast_bounds.hpp)
+  // The bounds live in the depth map itself (raycast_bounds.hpp): no tiles of the scratch.
   raycast_bounds::clear(maps.depth_m);
   const Pose T_cam_world = T_world_cam.inverse();
   const float vs = volume.voxel_m();
@@ -178,7 +178,8 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
     for (int a = 0; a < 3; ++a) {
       lower[a] = bc[a] > 0 ? brick_mask(b - stride[a]) : 0;
       upper[a] = bc[a] + 1 < nb ? brick_mask(b + stride[a]) : 0;
-      // The brick's crossing regions span voxel-centre coordinates [8 b - 1.5, 8 b + 8.5).
+      // The brick's crossing cubes span [8 b - 0.5, 8 b + 8.5] in these coordinates; a sensor
+      // beyond them (with slack) sees every ray through them going the same way on this axis.
       const float lo = float(kBrickSide * bc[a]) - 2.0f, hi = float(kBrickSide * (bc[a] + 1)) + 2.0f;
       toward[a] = cam_g[a] < lo ? -1 : (cam_g[a] > hi ? 1 : 0);
     }
