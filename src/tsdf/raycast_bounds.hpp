@@ -245,7 +245,7 @@ class Splatter {
     const float s = reach_m_ / z_min;
     r_u = intr_.fx * s * std::sqrt(1.0f + ax * ax);
     r_v = intr_.fy * s * std::sqrt(1.0f + ay * ay);
-    return r_u <= float(kDilate + 1) && r_v <= float(kDilate + 1);
+    return r_u <= float(kDilate + 1) && r_v <= float(kDilate + 1);  // centres() relies on it
   }
 
   // The fast path: the brick's radius around each block's projected centre, written shrunk by
@@ -272,24 +272,20 @@ class Splatter {
       const int16_t fh = (sides.back >> bit) & 1u ? far_half(q_.ceil_q(z + reach_m_)) : kEmpty;
       shrink(iu0, iu1);
       shrink(iv0, iv1);
-      merge_small(clamp(iu0, w), clamp(iu1, w), clamp(iv0, h), clamp(iv1, h), nh, fh);
-    }
-  }
-
-  // A merge of a few pixels (one or two per row for most blocks). Kept scalar: a vectorised
-  // loop's set-up and alias checks cost more than such short rows (callgrind: -6 % of the splat).
-#if defined(__GNUC__) && !defined(__clang__)
-  __attribute__((optimize("no-tree-vectorize")))
-#endif
-  void merge_small(int u0, int u1, int v0, int v1, int16_t nh, int16_t fh) const {
-    for (int v = v0; v <= v1; ++v) {
-      alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(v)) + 2 * u0;
-      for (int n = u1 - u0; n >= 0; --n, p += 2) {
-        p[0] = p[0] < nh ? p[0] : nh;
-        p[1] = p[1] < fh ? p[1] : fh;
+      // r <= kDilate + 1 leaves a span of at most 2 (r + eps) = 6 pixel steps, i.e. at most 3 pixels
+      // per axis after the shrink: bounded loops with an early exit (no vector set-up for such
+      // short rows; the bound of 4 is slack).
+      const int u0 = clamp(iu0, w), u1 = clamp(iu1, w), v0 = clamp(iv0, h), v1 = clamp(iv1, h);
+      for (int j = 0; j < 4 && v0 + j <= v1; ++j) {
+        alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(v0 + j)) + 2 * u0;
+        for (int i = 0; i < 4 && u0 + i <= u1; ++i, p += 2) {
+          p[0] = p[0] < nh ? p[0] : nh;
+          p[1] = p[1] < fh ? p[1] : fh;
+        }
       }
     }
   }
+
   static constexpr float kShift = 4096.0f;
   static constexpr int kIShift = 4096;
   static float clamp_px(float x) { return std::min(std::max(x, 0.0f), 16384.0f); }
