@@ -89,9 +89,10 @@ inline bool read(const ImageView<float>& depth, int u, int v, const Quant& q, fl
   return true;
 }
 
-// Footprints of up to (2 kDilate + 1)^2 pixels (a block seen from beyond ~0.5 m at 2 mm voxels
-// and fx ~ 285 px) are written as one pixel, and one min filter over the image widens them all:
-// ~20 pixel writes per block become one, plus 2 (2 kDilate + 1) vector minima per pixel.
+// Footprints are written shrunk by kDilate pixels on every side (one pixel when they are at most
+// 2 kDilate + 1 wide: a block seen from beyond ~0.6 m at 2 mm voxels and fx ~ 290 px, most of
+// them one to four), and one min filter over the image widens them all back: ~25 pixel writes
+// per block become one to four, plus 2 (2 kDilate + 1) vector minima per pixel.
 inline constexpr int kDilate = 2;
 //! Widest image dilate() handles (its row buffers live on the stack); wider images splat whole
 //! footprints.
@@ -263,8 +264,8 @@ class Splatter {
       const float z = c0.z() + oz_[bit];
       const float inv = 1.0f / z;
       const float pu = intr_.fx * (c0.x() + ox_[bit]) * inv, pv = intr_.fy * (c0.y() + oy_[bit]) * inv;
-      // Sensor-frame x / z is bounded by the brick's corners, so pu, pv stay far from the
-      // conversion's limits only once clamped.
+      // pu, pv are huge for blocks far off the axis: the clamp keeps the conversion defined (a
+      // clamped end lies outside any image, and the test below drops the block).
       int iu0 = int(clamp_px(pu + off_u0)) - (kIShift - 1), iu1 = int(clamp_px(pu + off_u1)) - kIShift;
       int iv0 = int(clamp_px(pv + off_v0)) - (kIShift - 1), iv1 = int(clamp_px(pv + off_v1)) - kIShift;
       if (iu1 < 0 || iv1 < 0 || iu0 >= w || iv0 >= h) continue;
