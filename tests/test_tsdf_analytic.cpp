@@ -9,6 +9,7 @@
 
 #include "edgefuse/tsdf/integrate.hpp"
 #include "edgefuse/tsdf/raycast.hpp"
+#include "../src/tsdf/raycast_bounds.hpp"  // the bounds test reads them (private to src/)
 #include "scenes.hpp"
 #include "test_support.hpp"
 
@@ -368,5 +369,58 @@ TEST(TsdfAnalytic, BlockMasksMarkTheBlocksBelowPlusOneAndLeaveTheRaycastUnchange
     CHECK(a.hits >= b.hits - b.hits / 1000);
     CHECK(a.max_err < 0.1f * kVoxel);
     CHECK(a.max_err_oblique < 0.3f * kVoxel);
+  }
+}
+
+// Raycast bounds, round 5 (src/tsdf/raycast_bounds.hpp): prepare_raycast leaves in each pixel of
+// the depth map the z range its ray is marched over, from the marked 2^3 blocks' front and back
+// faces. Every trustworthy surface pixel must be covered, its true depth inside the range (the
+// zero crossing of the trilinear field lies within 0.1 voxel of the truth, as the raycast tests
+// above show), and the range must start within a few voxels of the surface: the marked band in
+// front of it (4 voxels at trunc = 4 voxels), a block's reach (2.6) and the lateral reach.
+TEST(TsdfAnalytic, PerPixelBoundsHoldEveryTrueSurfaceAndStartNearIt) {
+  const Scene scene = sphere_scene();
+  const std::vector<Pose> poses = views_around(Vec3f(0, 0, 0.8f), 0.1f);
+  fuse<float>(vol, scene, cam, poses);
+  const raycast_bounds::Quant q(cam.max_range_m);
+  for (const Pose& T : {poses[1], look_at(Vec3f(0.05f, -0.03f, 0.02f), Vec3f(0.0f, 0.0f, 0.8f))}) {
+    Maps m;
+    const RaycastMaps views = m.views(cam);
+    CHECK(prepare_raycast(vol, cam, T, views, g_scratch) == Status::kOk);
+    std::vector<uint16_t> truth;
+    std::vector<float> cosi;
+    std::vector<int> item;
+    render(scene, cam, T, truth, nullptr, &cosi, &item);
+    int compared = 0, covered = 0, inside = 0, marched = 0;
+    double lead_voxels = 0;
+    for (int v = 1; v < cam.height - 1; ++v)
+      for (int u = 1; u < cam.width - 1; ++u) {
+        float near_m = 0, far_m = 0;
+        const bool has = raycast_bounds::read(views.depth_m, u, v, q, near_m, far_m);
+        marched += has;
+        const std::size_t i = std::size_t(v) * cam.width + u;
+        if (truth[i] == 0 || cosi[i] < 0.5f) continue;
+        bool edge = false;
+        for (int dv = -1; dv <= 1; ++dv)
+          for (int du = -1; du <= 1; ++du) edge = edge || item[i + dv * cam.width + du] != item[i];
+        if (edge) continue;
+        const float z = float(truth[i]) / cam.depth_scale;
+        const Vec3f p = T * cam.back_project(float(u), float(v), z);
+        const Vec3f lo = vol.origin_m() + Vec3f::Constant(3 * kVoxel);
+        const Vec3f hi = vol.origin_m() + Vec3f::Constant(vol.dim() * kVoxel - 3 * kVoxel);
+        if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+        ++compared;
+        if (!has) continue;
+        ++covered;
+        if (near_m <= z + 0.1f * kVoxel && z - 0.1f * kVoxel <= far_m) ++inside;
+        lead_voxels += (z - near_m) / kVoxel;
+      }
+    std::printf("\n  bounds: %d trustworthy surface pixels, %d covered, %d inside their range, start %.1f voxels "
+                "before the surface on average; %d of %d pixels marched",
+                compared, covered, inside, lead_voxels / std::max(covered, 1), marched, cam.width * cam.height);
+    CHECK(compared > 20000);
+    CHECK(covered == compared);
+    CHECK(inside == compared);
+    CHECK(lead_voxels / std::max(covered, 1) < 13.0);  // 11.4 and 11.5 when written
   }
 }

@@ -6,6 +6,7 @@
 #include <type_traits>
 
 #include "kernel_math.hpp"
+#include "raycast_bounds.hpp"
 #include "tsdf_sampler.hpp"
 
 namespace edgefuse {
@@ -144,88 +145,50 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
   if (!scratch.fits(intr.width, intr.height)) return Status::kCapacityExceeded;
   if (volume.dim() > kRaycastDimMax) return Status::kCapacityExceeded;
 
-  const int tx = FrameScratch::tiles_x(intr.width), ty = FrameScratch::tiles_y(intr.height);
-  const std::size_t tiles = FrameScratch::tiles_for(intr.width, intr.height);
-  for (std::size_t i = 0; i < tiles; ++i) {
-    scratch.model_min_z[i] = 1e30f;
-    scratch.model_max_z[i] = -1.0f;
-  }
+  // The bounds live in the depth map itself (raycast_bounds.hpp): no tiles of the scratch.
+  raycast_bounds::clear(maps.depth_m);
   const Pose T_cam_world = T_world_cam.inverse();
   const float vs = volume.voxel_m();
   const uint8_t* flags = volume.brick_flags();
   const uint64_t* masks = volume.block_mask();
   const std::size_t bricks = volume.brick_count();
+  // The centre of block (0, 0, 0) of brick (0, 0, 0): origin + 1 voxel on each axis.
+  const Vec3f first_block = T_cam_world * (volume.origin_m() + Vec3f::Constant(vs));
+  const Vec3f brick_step[3] = {T_cam_world.R.col(0) * (kBrickSide * vs), T_cam_world.R.col(1) * (kBrickSide * vs),
+                               T_cam_world.R.col(2) * (kBrickSide * vs)};
+  const bool dilate = intr.width <= raycast_bounds::kDilateWidthMax;
+  const raycast_bounds::Splatter splat(maps.depth_m, intr, T_cam_world, vs, dilate);
+  const int nb = volume.bricks_per_axis();
+  const auto brick_mask = [&](std::size_t k) -> uint64_t {
+    if (!(flags[k] & kBrickSurface)) return 0;
+    return masks != nullptr ? masks[k] : ~uint64_t(0);
+  };
+  // The sensor in voxel-centre grid coordinates (voxel i spans [i, i + 1)).
+  const Vec3f cam_g = (T_world_cam.t - volume.origin_m()) / vs;
   for (std::size_t b = 0; b < bricks; ++b) {
     if (!(flags[b] & kBrickSurface)) continue;
-    // The voxel-index box (inclusive) whose cells can hold this brick's crossings: without block
-    // masks the whole brick; with them the blocks holding a distance below +1. A crossing cell
-    // has such a corner, so it lies within one voxel of those blocks.
-    int lo[3] = {0, 0, 0}, hi[3] = {kBrickSide - 1, kBrickSide - 1, kBrickSide - 1};
-    if (masks != nullptr) {
-      const uint64_t m = masks[b];
-      if (m == 0) continue;  // every observed voxel back at +1: no crossing here
-      // Bounding box of the set blocks: OR the mask's planes / rows / columns.
-      uint32_t zs = 0, ys = 0, xs = 0;
-      for (int bz = 0; bz < 4; ++bz) {
-        const uint32_t plane = uint32_t(m >> (bz * 16)) & 0xffffu;
-        if (plane == 0) continue;
-        zs |= 1u << bz;
-        for (int by = 0; by < 4; ++by) {
-          const uint32_t row = (plane >> (by * 4)) & 0xfu;
-          if (row == 0) continue;
-          ys |= 1u << by;
-          xs |= row;
-        }
-      }
-      const uint32_t sets[3] = {xs, ys, zs};
-      for (int a = 0; a < 3; ++a) {
-        int first = 0, last = 3;
-        while (!(sets[a] & (1u << first))) ++first;
-        while (!(sets[a] & (1u << last))) --last;
-        lo[a] = 2 * first - 1;  // the cell based one voxel before the block reaches into it
-        hi[a] = 2 * last + 1;
-      }
+    // Without mask storage every block of a surface brick counts; a zero mask means every
+    // observed voxel is back at +1: no crossing here.
+    const uint64_t m = brick_mask(b);
+    if (m == 0) continue;
+    int bc[3];
+    volume.brick_coords(b, bc[0], bc[1], bc[2]);
+    uint64_t lower[3], upper[3];
+    int toward[3];
+    const std::size_t stride[3] = {1, std::size_t(nb), std::size_t(nb) * std::size_t(nb)};
+    for (int a = 0; a < 3; ++a) {
+      lower[a] = bc[a] > 0 ? brick_mask(b - stride[a]) : 0;
+      upper[a] = bc[a] + 1 < nb ? brick_mask(b + stride[a]) : 0;
+      // The brick's crossing cubes span [8 b - 0.5, 8 b + 8.5] in these coordinates; a sensor
+      // beyond them (with slack) sees every ray through them going the same way on this axis.
+      const float lo = float(kBrickSide * bc[a]) - 2.0f, hi = float(kBrickSide * (bc[a] + 1)) + 2.0f;
+      toward[a] = cam_g[a] < lo ? -1 : (cam_g[a] > hi ? 1 : 0);
     }
-    int bx, by, bz;
-    volume.brick_coords(b, bx, by, bz);
-    const Vec3f corner = volume.origin_m() + Vec3f(float(bx), float(by), float(bz)) * (kBrickSide * vs);
-    // A zero crossing can lie in a cell reaching one voxel past the box's last voxel centre.
-    const Vec3f box_lo = corner + Vec3f(lo[0] + 0.5f, lo[1] + 0.5f, lo[2] + 0.5f) * vs;
-    const Vec3f box_hi = corner + Vec3f(hi[0] + 1.5f, hi[1] + 1.5f, hi[2] + 1.5f) * vs;
-    float z_lo = 1e30f, z_hi = -1e30f, u_lo = 1e30f, u_hi = -1e30f, v_lo = 1e30f, v_hi = -1e30f;
-    bool behind = false;
-    for (int k = 0; k < 8; ++k) {
-      const Vec3f p = T_cam_world * Vec3f((k & 1) ? box_hi.x() : box_lo.x(), (k & 2) ? box_hi.y() : box_lo.y(),
-                                          (k & 4) ? box_hi.z() : box_lo.z());
-      z_lo = std::min(z_lo, p.z());
-      z_hi = std::max(z_hi, p.z());
-      if (p.z() <= 1e-3f) {
-        behind = true;
-        continue;
-      }
-      float u = 0.0f, v = 0.0f;
-      intr.project(p, u, v);  // p.z > 0 here
-      u_lo = std::min(u_lo, u);
-      u_hi = std::max(u_hi, u);
-      v_lo = std::min(v_lo, v);
-      v_hi = std::max(v_hi, v);
-    }
-    if (z_hi <= 0.0f) continue;
-    if (behind) {  // straddles the sensor plane: may cover any pixel
-      u_lo = v_lo = -1e30f;
-      u_hi = v_hi = 1e30f;
-    }
-    const int i0 = std::max(0, int(std::floor((u_lo + 0.5f) / FrameScratch::kTile)));
-    const int i1 = std::min(tx - 1, int(std::floor((std::min(u_hi, 1e6f) + 0.5f) / FrameScratch::kTile)));
-    const int j0 = std::max(0, int(std::floor((v_lo + 0.5f) / FrameScratch::kTile)));
-    const int j1 = std::min(ty - 1, int(std::floor((std::min(v_hi, 1e6f) + 0.5f) / FrameScratch::kTile)));
-    for (int j = j0; j <= j1; ++j)
-      for (int i = i0; i <= i1; ++i) {
-        const std::size_t t = std::size_t(j) * tx + i;
-        scratch.model_min_z[t] = std::min(scratch.model_min_z[t], z_lo);
-        scratch.model_max_z[t] = std::max(scratch.model_max_z[t], z_hi);
-      }
+    const raycast_bounds::Sides sides = raycast_bounds::front_back(m, lower, upper, toward);
+    splat.brick(sides, first_block + float(bc[0]) * brick_step[0] + float(bc[1]) * brick_step[1] +
+                           float(bc[2]) * brick_step[2]);
   }
+  if (dilate) raycast_bounds::dilate(maps.depth_m);
   return Status::kOk;
 }
 
@@ -296,11 +259,12 @@ class RayMarcher {
       : volume_(volume), intr_(intr), T_world_cam_(T_world_cam), maps_(maps), scratch_(scratch),
         f_(make_ray_frame<Real>(volume, intr, T_world_cam)), flags_(volume.brick_flags()),
         tsdf_(volume.tsdf()), colour_(volume.colour()), colour_weight_(volume.colour_weight()),
-        tiles_x_(FrameScratch::tiles_x(intr.width)), last_(uint32_t(volume.dim() - 1)),
+        quant_(intr.max_range_m), last_(uint32_t(volume.dim() - 1)),
         nb_(uint32_t(volume.bricks_per_axis())), nb2_(nb_ * nb_), dy_wrap_(nb_ * kBrickVoxels - 56u),
         dz_wrap_(nb2_ * kBrickVoxels - 448u),
-        // The positive band in front of a surface has |tsdf| < 1, so it belongs to surface bricks
-        // too: starting at the tiles' near bound still leaves a positive sample before every crossing.
+        // A voxel of slack around the pixel's range (raycast_bounds.hpp), which is exact only up
+        // to float rounding; the marked positive band in front of a surface lies inside the range,
+        // so the march still meets a positive sample before every crossing.
         margin_(real_from<Real>(volume.voxel_m())),
         want_vertex_(!maps.vertex.empty()), want_normal_(!maps.normal.empty()), clear_colour_(!maps.colour.empty()),
         want_colour_(!maps.colour.empty() && volume.has_colour()) {
@@ -313,13 +277,14 @@ class RayMarcher {
     const Real zero = real_from_int<Real>(0);
     const Real half = real_from<Real>(0.5f);
     const Real one = real_from_int<Real>(1);
+    // This pixel's z range from the marked blocks (raycast_bounds.hpp), read before the clear.
+    float near_m = 0.0f, far_m = 0.0f;
+    const bool covered = raycast_bounds::read(maps_.depth_m, u, v, quant_, near_m, far_m);
     maps_.depth_m.at(u, v) = 0.0f;
     if (want_vertex_) maps_.vertex.at(u, v) = Vec3f::Zero();
     if (want_normal_) maps_.normal.at(u, v) = Vec3f::Zero();
     if (clear_colour_) maps_.colour.at(u, v) = Rgba8{};
-    // The z range where this tile's surface bricks lie (and a voxel of slack).
-    const std::size_t tile = std::size_t(v / FrameScratch::kTile) * tiles_x_ + std::size_t(u / FrameScratch::kTile);
-    if (scratch_.model_max_z[tile] < 0.0f) return false;
+    if (!covered) return false;
     r.u = u;
     r.v = v;
     // Ray (x, y, 1) in the camera frame: t along it is the z-depth.
@@ -334,8 +299,8 @@ class RayMarcher {
     r.nudge = real_from<Real>(1.0f / 64.0f) * f_.voxel * r.z_per_m;
     r.half_trunc = max_r(half * f_.trunc * r.z_per_m, r.min_step);
     r.far_step = max_r((f_.trunc - f_.voxel) * r.z_per_m, r.min_step);
-    r.t = max_r(f_.min_z, real_from<Real>(scratch_.model_min_z[tile]) - margin_);
-    r.t_end = min_r(f_.max_z, real_from<Real>(scratch_.model_max_z[tile]) + margin_);
+    r.t = max_r(f_.min_z, real_from<Real>(near_m) - margin_);
+    r.t_end = min_r(f_.max_z, real_from<Real>(far_m) + margin_);
     if (!clip_to_grid(f_, r.dir, r.t, r.t_end)) return false;
     // Start and stop a little inside the grid: the clip is exact only up to rounding.
     r.t += r.nudge;
@@ -638,7 +603,7 @@ class RayMarcher {
   const int16_t* tsdf_;
   const Rgb8* colour_;
   const uint8_t* colour_weight_;
-  const int tiles_x_;
+  const raycast_bounds::Quant quant_;
   const uint32_t last_, nb_, nb2_, dy_wrap_, dz_wrap_;
   const Real margin_;
   const bool want_vertex_, want_normal_, clear_colour_, want_colour_;

@@ -2,8 +2,9 @@
 //   depth_tiles: min / max of the valid raw depth in each tile of the frame being pushed, so a
 //                whole brick can be classified at once (entirely behind the surface: skipped;
 //                entirely in free space: updated without projecting each voxel).
-//   model_*_z:   z range of the surface bricks projected into each tile, so each raycast ray
-//                starts just before the surface instead of at the volume's border.
+//   model_*_z:   z range of the surface bricks projected into each tile. Unused since round 5:
+//                the raycast keeps a range per pixel in its depth map (src/tsdf/raycast_bounds.hpp);
+//                the memory-map regions remain until the map is next reorganised.
 #pragma once
 
 #include <cstddef>

@@ -1,9 +1,11 @@
 // Raycasting a pinhole sensor's view out of the space (paper Fig. 3, "model <- raycast").
 //
-// First the bricks holding surface are projected into 8x8-pixel tiles (prepare_raycast), giving
-// each tile the z range where a surface can be; a ray starts one truncation before that range and
-// stops one after it, and rays of tiles without surface are not marched at all. Then for every
-// pixel the ray from the sensor centre is marched through the volume:
+// First the marked 2^3-voxel blocks of the surface bricks (the blocks holding a distance below +1)
+// are projected into the image (prepare_raycast): each pixel gets the z range in which its ray can
+// meet a zero crossing, from the blocks facing the sensor (near end) and facing away (far end);
+// the range is kept in the depth map's own floats until the march reads it. A ray starts a voxel
+// before its range and stops a voxel after it; pixels no marked block covers are not marched.
+// Then for every pixel the ray from the sensor centre is marched through the volume:
 //   - bricks without surface nearby (kBrickNearSurface clear) are skipped whole;
 //   - inside, the step is the interpolated distance itself (at least half a voxel), so free space
 //     is crossed quickly and the surface is never stepped over by more than the distance bound;
@@ -35,12 +37,13 @@ struct RaycastMaps {
 //! prepare_raycast refuses larger volumes with kCapacityExceeded.
 inline constexpr int kRaycastDimMax = 1024;
 
-//! Step 1: checks the outputs and projects the surface bricks into the scratch's model tiles.
+//! Step 1: checks the outputs and projects the marked blocks into per-pixel z ranges, kept in
+//! maps.depth_m until raycast_rows overwrites each pixel (call raycast_rows on every row after it).
 //! \param volume the space
 //! \param intr sensor intrinsics (min/max range bound the ray)
 //! \param T_world_cam sensor pose
 //! \param maps outputs (checked against intr)
-//! \param scratch the sensor's tile scratch
+//! \param scratch the sensor's tile scratch (checked for the image size; the ranges need no memory)
 Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
                        const RaycastMaps& maps, FrameScratch& scratch);
 

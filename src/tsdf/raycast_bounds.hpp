@@ -1,0 +1,363 @@
+// Per-pixel march bounds of the raycast (speed work, round 5): prepare_raycast projects the
+// marked 2^3 blocks (block_mask.hpp) into the image and keeps, for each pixel, the z-depth range
+// in which its ray can meet a zero crossing. A ray then starts a few voxels before its own
+// surface and stops a few voxels behind it; a pixel that no marked block covers is not marched.
+//
+// Storage: no memory of its own. Each pixel's bound is packed into the 4 bytes of that pixel's
+// depth-map float (two int16: the near z and the negated far z, in steps of max_range / 65534,
+// offset by -32768 so that SSE2's signed 16-bit minimum applies), which RayMarcher::start reads
+// before it clears the pixel. Negating the far z makes both halves minima, so merging a block
+// into a pixel, and widening the bounds (dilate), are element-wise minima over int16s.
+// Private to src/.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#include "edgefuse/core/image.hpp"
+#include "edgefuse/math/pose.hpp"
+#include "edgefuse/sensor/pinhole.hpp"
+#include "edgefuse/tsdf/volume.hpp"
+
+namespace edgefuse {
+namespace raycast_bounds {
+
+//! Quantisation of z-depth (max_range_m maps to kTop steps).
+struct Quant {
+  static constexpr int32_t kTop = 65000;  // the halves stay below kEmpty
+  float unit_m = 0.0f;    //!< metres per step
+  float inv_unit = 0.0f;  //!< steps per metre
+  //! \param max_range_m the sensor's farthest z-depth (no bound needs more)
+  explicit Quant(float max_range_m) : unit_m(max_range_m / float(kTop)), inv_unit(float(kTop) / max_range_m) {}
+  //! Largest step at or below z_m, clamped to [0, kTop].
+  int32_t floor_q(float z_m) const {
+    const float q = z_m * inv_unit;
+    return q <= 0.0f ? 0 : (q >= float(kTop) ? kTop : int32_t(q));
+  }
+  //! Smallest step at or above z_m, clamped to [0, kTop].
+  int32_t ceil_q(float z_m) const {
+    const float q = z_m * inv_unit;
+    if (q <= 0.0f) return 0;
+    if (q >= float(kTop)) return kTop;
+    const int32_t i = int32_t(q);
+    return float(i) < q ? i + 1 : i;
+  }
+};
+
+//! Both halves of a pixel that no block covers (a byte pattern: clear() is a memset).
+inline constexpr int16_t kEmpty = 0x7F7F;
+//! The near half of a step count (0..kTop), and the far half.
+inline int16_t near_half(int32_t near_q) { return int16_t(near_q - 32768); }
+inline int16_t far_half(int32_t far_q) { return int16_t(32767 - far_q); }
+
+// The depth map seen as int16 pairs (may_alias: the floats are not read as floats until the march
+// has cleared them).
+using alias_i16 = int16_t __attribute__((__may_alias__));
+
+//! Sets every pixel of the depth map to "no bound".
+inline void clear(const ImageView<float>& depth) {
+  for (int v = 0; v < depth.height; ++v) {
+    std::memset(depth.row(v), 0x7F, sizeof(float) * std::size_t(depth.width));
+  }
+}
+
+//! Merges the halves (near_half / far_half, kEmpty for "none") into pixels [u0, u1] x [v0, v1]
+//! (inclusive, inside the image).
+inline void merge_rect(const ImageView<float>& depth, int u0, int u1, int v0, int v1, int16_t nh, int16_t fh) {
+  for (int v = v0; v <= v1; ++v) {
+    alias_i16* p = reinterpret_cast<alias_i16*>(depth.row(v)) + 2 * u0;
+    for (int u = u0; u <= u1; ++u, p += 2) {
+      p[0] = p[0] < nh ? p[0] : nh;
+      p[1] = p[1] < fh ? p[1] : fh;
+    }
+  }
+}
+
+//! Reads pixel (u, v)'s bound; false when no block covers it. Call before the pixel is written.
+//! \param depth the depth map prepared by prepare_raycast
+//! \param u, v the pixel
+//! \param q the frame's quantisation
+//! \param near_m, far_m the z range, out
+inline bool read(const ImageView<float>& depth, int u, int v, const Quant& q, float& near_m, float& far_m) {
+  int16_t h[2];
+  std::memcpy(h, &depth.at(u, v), sizeof h);
+  if (h[0] == kEmpty) return false;
+  near_m = float(int32_t(h[0]) + 32768) * q.unit_m;
+  far_m = float(32767 - int32_t(h[1])) * q.unit_m;
+  return true;
+}
+
+// Footprints are written shrunk by kDilate pixels on every side (one pixel when they are at most
+// 2 kDilate + 1 wide: a block seen from beyond ~0.6 m at 2 mm voxels and fx ~ 290 px, most of
+// them one to four), and one min filter over the image widens them all back: ~25 pixel writes
+// per block become one to four, plus 2 (2 kDilate + 1) vector minima per pixel.
+inline constexpr int kDilate = 2;
+//! Widest image dilate() handles (its row buffers live on the stack); wider images splat whole
+//! footprints.
+inline constexpr int kDilateWidthMax = 1024;
+
+//! Square min filter of half-size kDilate over both halves of every pixel, in place.
+//! \param depth the depth map holding the packed bounds (width <= kDilateWidthMax)
+inline void dilate(const ImageView<float>& depth) {
+  const int w2 = 2 * depth.width, h = depth.height;
+  constexpr int kPad = 2 * kDilate;  // int16s of "empty" on either side of a row copy
+  // Rows: each output is the minimum of the row's 2 kDilate + 1 pixels around it, in one pass
+  // over a padded copy (every pixel is two int16s: the neighbours are 2 d apart).
+  alias_i16 tmp[2 * kDilateWidthMax + 2 * kPad];
+  for (int k = 0; k < kPad; ++k) tmp[k] = tmp[kPad + w2 + k] = kEmpty;
+  for (int v = 0; v < h; ++v) {
+    alias_i16* row = reinterpret_cast<alias_i16*>(depth.row(v));
+    std::memcpy(tmp + kPad, row, sizeof(int16_t) * std::size_t(w2));
+    for (int k = 0; k < w2; ++k) {
+      int16_t m = tmp[kPad + k];
+      for (int d = 1; d <= kDilate; ++d) {
+        m = m < tmp[kPad + k - 2 * d] ? m : tmp[kPad + k - 2 * d];
+        m = m < tmp[kPad + k + 2 * d] ? m : tmp[kPad + k + 2 * d];
+      }
+      row[k] = m;
+    }
+  }
+  // Columns: row v becomes the minimum of rows v - kDilate .. v + kDilate. The rows above and
+  // this one are already being overwritten, so their row-filtered values are kept in a ring;
+  // missing rows (beyond the image) are stood in for by this row's own copy.
+  alias_i16 ring[kDilate + 1][2 * kDilateWidthMax];
+  for (int v = 0; v < h; ++v) {
+    alias_i16* row = reinterpret_cast<alias_i16*>(depth.row(v));
+    alias_i16* own = ring[v % (kDilate + 1)];
+    std::memcpy(own, row, sizeof(int16_t) * std::size_t(w2));
+    const alias_i16* others[2 * kDilate];
+    for (int d = 1; d <= kDilate; ++d) {
+      others[2 * d - 2] = v - d >= 0 ? ring[(v - d) % (kDilate + 1)] : own;
+      others[2 * d - 1] = v + d < h ? reinterpret_cast<const alias_i16*>(depth.row(v + d)) : own;
+    }
+    for (int k = 0; k < w2; ++k) {
+      int16_t m = own[k];
+      for (int i = 0; i < 2 * kDilate; ++i) m = m < others[i][k] ? m : others[i][k];
+      row[k] = m;
+    }
+  }
+}
+
+// How far a zero crossing can lie from a marked block's centre: the block's voxel centres are
+// within half a voxel of it on each axis, and a crossing lies in a cell with a marked corner, i.e.
+// within one more voxel on each axis: a cube of half-size 1.5 voxels, inside this sphere.
+inline constexpr float kReachVoxels = 2.6f;  // 1.5 * sqrt(3) = 2.598
+
+// Masks of a brick's 4x4x4 blocks (bit z*16 + y*4 + x) on its faces.
+inline constexpr uint64_t kX0 = 0x1111111111111111ull, kX3 = kX0 << 3;
+inline constexpr uint64_t kY0 = 0x000F000F000F000Full, kY3 = kY0 << 12;
+inline constexpr uint64_t kZ0 = 0xFFFFull, kZ3 = kZ0 << 48;
+
+//! Blocks of a brick whose neighbour on the -axis / +axis side is marked, given the brick's mask
+//! and the masks of its neighbour bricks on that side.
+inline uint64_t lower_marked(int axis, uint64_t m, uint64_t nb) {
+  if (axis == 0) return ((m << 1) & ~kX0) | ((nb & kX3) >> 3);
+  if (axis == 1) return ((m << 4) & ~kY0) | ((nb & kY3) >> 12);
+  return (m << 16) | ((nb & kZ3) >> 48);
+}
+inline uint64_t upper_marked(int axis, uint64_t m, uint64_t nb) {
+  if (axis == 0) return ((m >> 1) & ~kX3) | ((nb & kX0) << 3);
+  if (axis == 1) return ((m >> 4) & ~kY3) | ((nb & kY0) << 12);
+  return (m >> 16) | ((nb & kZ0) << 48);
+}
+
+// Which blocks bound the march. The crossing regions (cubes of half-size 1.5 voxels around the
+// marked blocks' centres, see kReachVoxels) of face neighbours overlap on their common face, so
+// walking a ray back from its crossing, it leaves each cube through a face turned towards the
+// sensor into the next marked block's cube, until it reaches a block whose neighbour on that side
+// is unmarked. Those "front" blocks alone bound the near end of every ray; the far end likewise
+// the "back" blocks. Per axis, `toward` says on which side the sensor is (-1: lower coordinates,
+// +1: higher, 0: either, when the sensor is level with the brick: both sides count).
+struct Sides {
+  uint64_t front = 0, back = 0;
+};
+//! \param m the brick's mask
+//! \param lower, upper masks of the face-neighbour bricks below / above on x, y, z (0 if none)
+//! \param toward the sensor's side per axis (-1, +1, 0: both)
+inline Sides front_back(uint64_t m, const uint64_t lower[3], const uint64_t upper[3], const int toward[3]) {
+  uint64_t cover_front = ~uint64_t(0), cover_back = ~uint64_t(0);  // blocks hidden on every side
+  for (int a = 0; a < 3; ++a) {
+    const uint64_t lo = lower_marked(a, m, lower[a]), hi = upper_marked(a, m, upper[a]);
+    if (toward[a] <= 0) cover_front &= lo, cover_back &= hi;
+    if (toward[a] >= 0) cover_front &= hi, cover_back &= lo;
+  }
+  Sides s;
+  s.front = m & ~cover_front;
+  s.back = m & ~cover_back;
+  return s;
+}
+
+// Splats the front and back blocks of surface bricks into the per-pixel bounds; built once per
+// raycast with the frame's constants.
+class Splatter {
+ public:
+  //! \param depth the depth map that receives the packed bounds (cleared by clear())
+  //! \param intr the sensor
+  //! \param T_cam_world maps world points into the sensor frame
+  //! \param voxel_m the voxel size
+  //! \param dilate true: blocks whose footprint fits within kDilate pixels of one pixel write only
+  //!        that pixel, and dilate() must run after the last brick; false: whole footprints
+  Splatter(const ImageView<float>& depth, const PinholeIntrinsics& intr, const Pose& T_cam_world, float voxel_m,
+           bool dilate)
+      : depth_(depth), intr_(intr), q_(intr.max_range_m), reach_m_(kReachVoxels * voxel_m), dilate_(dilate) {
+    // Block centres are a lattice: block (i, j, k) of a brick sits at i a + j b + k c from the
+    // brick's block (0, 0, 0), a, b, c being 2 voxels along world x, y, z in the sensor frame.
+    for (int a = 0; a < 3; ++a) step_[a] = T_cam_world.R.col(a) * (2.0f * voxel_m);
+    for (int bit = 0; bit < 64; ++bit) {
+      const Vec3f o = float(bit & 3) * step_[0] + float((bit >> 2) & 3) * step_[1] + float(bit >> 4) * step_[2];
+      ox_[bit] = o.x();
+      oy_[bit] = o.y();
+      oz_[bit] = o.z();
+    }
+  }
+
+  //! Splats one brick.
+  //! \param sides the brick's front and back blocks (bit (z/2)*16 + (y/2)*4 + x/2)
+  //! \param c0 sensor-frame centre of the brick's block (0, 0, 0)
+  void brick(const Sides& sides, const Vec3f& c0) const {
+    float r_u, r_v;
+    if (dilate_ && brick_radius(c0, r_u, r_v)) {
+      centres(sides, c0, r_u, r_v);
+    } else {
+      footprints(sides, c0);
+    }
+  }
+
+ private:
+  // One footprint radius in pixels (r_u, r_v) around the projected centre for every block of the
+  // brick; false when a block may be near or behind the sensor plane (then each block's own
+  // footprint). For a point q of the sphere around c, |q_x / q_z - c_x / c_z| <= r sqrt(1 +
+  // (c_x / c_z)^2) / (c_z - r) (Cauchy-Schwarz on q - c); over the brick it is bounded with the
+  // block centres' smallest z and largest |x|, |y| (the lattice's extreme corners).
+  bool brick_radius(const Vec3f& c0, float& r_u, float& r_v) const {
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = hi[a] = c0(a);
+      for (int k = 0; k < 3; ++k) {
+        const float e = 3.0f * step_[k](a);
+        (e < 0.0f ? lo[a] : hi[a]) += e;
+      }
+    }
+    const float z_min = lo[2] - reach_m_;
+    if (!(z_min > 0.05f * lo[2])) return false;  // near the sensor: footprints grow fast
+    const float ax = std::max(-lo[0], hi[0]) / lo[2], ay = std::max(-lo[1], hi[1]) / lo[2];
+    const float s = reach_m_ / z_min;
+    r_u = intr_.fx * s * std::sqrt(1.0f + ax * ax);
+    r_v = intr_.fy * s * std::sqrt(1.0f + ay * ay);
+    return r_u <= float(kDilate + 1) && r_v <= float(kDilate + 1);  // centres() relies on it
+  }
+
+  // The fast path: the brick's radius around each block's projected centre, written shrunk by
+  // kDilate (dilate() widens it back).
+  void centres(const Sides& sides, const Vec3f& c0, float r_u, float r_v) const {
+    const int w = intr_.width, h = intr_.height;
+    const float eps_px = 0.01f;  // rounding of the projection
+    // floor(u - r) + 1 and floor(u + r) with the shift of floor_px folded into the offsets.
+    const float off_u0 = intr_.cx - r_u - eps_px + kShift, off_u1 = intr_.cx + r_u + eps_px + kShift;
+    const float off_v0 = intr_.cy - r_v - eps_px + kShift, off_v1 = intr_.cy + r_v + eps_px + kShift;
+    uint64_t mask = sides.front | sides.back;
+    while (mask != 0) {
+      const int bit = __builtin_ctzll(mask);
+      mask &= mask - 1;
+      const float z = c0.z() + oz_[bit];
+      const float inv = 1.0f / z;
+      const float pu = intr_.fx * (c0.x() + ox_[bit]) * inv, pv = intr_.fy * (c0.y() + oy_[bit]) * inv;
+      // pu, pv are huge for blocks far off the axis: the clamp keeps the conversion defined (a
+      // clamped end lies outside any image, and the test below drops the block).
+      int iu0 = int(clamp_px(pu + off_u0)) - (kIShift - 1), iu1 = int(clamp_px(pu + off_u1)) - kIShift;
+      int iv0 = int(clamp_px(pv + off_v0)) - (kIShift - 1), iv1 = int(clamp_px(pv + off_v1)) - kIShift;
+      if (iu1 < 0 || iv1 < 0 || iu0 >= w || iv0 >= h) continue;
+      const int16_t nh = (sides.front >> bit) & 1u ? near_half(q_.floor_q(z - reach_m_)) : kEmpty;
+      const int16_t fh = (sides.back >> bit) & 1u ? far_half(q_.ceil_q(z + reach_m_)) : kEmpty;
+      shrink(iu0, iu1);
+      shrink(iv0, iv1);
+      // r <= kDilate + 1 leaves a span of at most 2 (r + eps) = 6 pixel steps, i.e. at most 3 pixels
+      // per axis after the shrink: bounded loops with an early exit (no vector set-up for such
+      // short rows; the bound of 4 is slack).
+      const int u0 = clamp(iu0, w), u1 = clamp(iu1, w), v0 = clamp(iv0, h), v1 = clamp(iv1, h);
+      for (int j = 0; j < 4 && v0 + j <= v1; ++j) {
+        alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(v0 + j)) + 2 * u0;
+        for (int i = 0; i < 4 && u0 + i <= u1; ++i, p += 2) {
+          p[0] = p[0] < nh ? p[0] : nh;
+          p[1] = p[1] < fh ? p[1] : fh;
+        }
+      }
+    }
+  }
+
+  static constexpr float kShift = 4096.0f;
+  static constexpr int kIShift = 4096;
+  static float clamp_px(float x) { return std::min(std::max(x, 0.0f), 16384.0f); }
+
+  // The general path: each block's whole footprint (near the sensor, or without dilation).
+  void footprints(const Sides& sides, const Vec3f& c0) const {
+    const float eps_px = 0.01f;  // rounding of the projection
+    uint64_t mask = sides.front | sides.back;
+    while (mask != 0) {
+      const int bit = __builtin_ctzll(mask);
+      mask &= mask - 1;
+      const Vec3f c(c0.x() + ox_[bit], c0.y() + oy_[bit], c0.z() + oz_[bit]);
+      const float z_lo = c.z() - reach_m_, z_hi = c.z() + reach_m_;
+      if (!(z_hi > 0.0f)) continue;  // behind the sensor
+      const int16_t nh = (sides.front >> bit) & 1u ? near_half(q_.floor_q(z_lo)) : kEmpty;
+      const int16_t fh = (sides.back >> bit) & 1u ? far_half(q_.ceil_q(z_hi)) : kEmpty;
+      if (!(z_lo > 1e-3f)) {  // straddles the sensor plane: may cover any pixel
+        merge_rect(depth_, 0, intr_.width - 1, 0, intr_.height - 1, nh, fh);
+        continue;
+      }
+      // The sphere's points have x in [c.x - r, c.x + r] and z in [z_lo, z_hi]: x / z lies
+      // between the four ratios of those ends (likewise y). One division for both reciprocals.
+      const float inv = 1.0f / (z_lo * z_hi);
+      const float i_lo = z_hi * inv, i_hi = z_lo * inv;
+      const float xa = c.x() - reach_m_, xb = c.x() + reach_m_, ya = c.y() - reach_m_, yb = c.y() + reach_m_;
+      const float u_lo = intr_.fx * std::min(xa * i_lo, xa * i_hi) + intr_.cx;
+      const float u_hi = intr_.fx * std::max(xb * i_lo, xb * i_hi) + intr_.cx;
+      const float v_lo = intr_.fy * std::min(ya * i_lo, ya * i_hi) + intr_.cy;
+      const float v_hi = intr_.fy * std::max(yb * i_lo, yb * i_hi) + intr_.cy;
+      // The pixels the sphere can cover: [iu0, iu1] x [iv0, iv1] (not yet clipped to the image).
+      int iu0 = -floor_px(eps_px - u_lo), iu1 = floor_px(u_hi + eps_px);
+      int iv0 = -floor_px(eps_px - v_lo), iv1 = floor_px(v_hi + eps_px);
+      if (iu1 < 0 || iv1 < 0 || iu0 >= intr_.width || iv0 >= intr_.height) continue;
+      if (dilate_) {
+        // dilate() widens every written pixel by kDilate: write the footprint shrunk by that much
+        // (at least its middle pixel), so that the widened result is the footprint again.
+        shrink(iu0, iu1);
+        shrink(iv0, iv1);
+      }
+      merge_rect(depth_, clamp(iu0, intr_.width), clamp(iu1, intr_.width), clamp(iv0, intr_.height),
+                 clamp(iv1, intr_.height), nh, fh);
+    }
+  }
+
+  static void shrink(int& lo, int& hi) {
+    if (hi - lo >= 2 * kDilate) {
+      lo += kDilate;
+      hi -= kDilate;
+    } else {
+      lo = hi = (lo + hi) >> 1;
+    }
+  }
+  // Clamping a range's ends into the image keeps every image pixel within kDilate of it that was
+  // within kDilate of the range.
+  static int clamp(int i, int size) { return i < 0 ? 0 : (i >= size ? size - 1 : i); }
+
+  // floor() of a pixel coordinate without a libm call: clamped far outside any image (the result
+  // only needs to stay outside it), shifted positive and truncated.
+  static int floor_px(float x) {
+    x = std::min(std::max(x, -4096.0f), 12288.0f);
+    return int(x + 4096.0f) - 4096;
+  }
+
+  const ImageView<float>& depth_;
+  const PinholeIntrinsics& intr_;
+  const Quant q_;
+  const float reach_m_;
+  const bool dilate_;
+  Vec3f step_[3];
+  float ox_[64], oy_[64], oz_[64];  // block (bit) centre minus block 0's, sensor frame
+};
+
+}  // namespace raycast_bounds
+}  // namespace edgefuse
