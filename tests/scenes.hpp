@@ -77,13 +77,10 @@ template <class Real>
 struct SensorBuffers {
   static constexpr std::size_t kTiles = edgefuse::FrameScratch::tiles_for(640, 480);
   edgefuse::DepthTile depth_tiles[kTiles];
-  float model_min_z[kTiles], model_max_z[kTiles];
   Real norms[640 * 480];
   edgefuse::FrameScratch scratch() {
     edgefuse::FrameScratch f;
     f.depth_tiles = depth_tiles;
-    f.model_min_z = model_min_z;
-    f.model_max_z = model_max_z;
     f.capacity = kTiles;
     return f;
   }

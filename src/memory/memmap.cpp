@@ -30,8 +30,6 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   out.raycast_normal = static_cast<Vec3f*>(at(Region::kRaycastNormal));
   out.raycast_colour = static_cast<Rgba8*>(at(Region::kRaycastColour));
   out.depth_tiles = static_cast<DepthTile*>(at(Region::kDepthTiles));
-  out.model_min_z = static_cast<float*>(at(Region::kModelTilesMin));
-  out.model_max_z = static_cast<float*>(at(Region::kModelTilesMax));
   out.points = static_cast<SurfacePoint*>(at(Region::kSurfacePoints));
   out.mesh_scratch.edge_ids = static_cast<uint32_t*>(at(Region::kMeshScratch));
   out.mesh_scratch.capacity = MeshScratch::entries_for(c.volume_dim);

@@ -34,8 +34,6 @@ enum class Region : int {
   kRaycastNormal,   //!< model normals per sensor
   kRaycastColour,   //!< model colour per sensor
   kDepthTiles,      //!< 8x8-pixel depth bounds per sensor (integration)
-  kModelTilesMin,   //!< 8x8-pixel surface z range per sensor (raycast)
-  kModelTilesMax,
   kSurfacePoints,   //!< extracted / fused cloud
   kMeshScratch,     //!< marching-cubes slice tables
   kPyramidVertex,   //!< tracking: the frame's vertex maps, all pyramid levels, per sensor
@@ -116,8 +114,6 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kRaycastNormal, "raycast normal", pixels * sizeof(Vec3f));
   set(Region::kRaycastColour, "raycast colour", pixels * sizeof(Rgba8));
   set(Region::kDepthTiles, "depth tile bounds", tiles * sizeof(DepthTile));
-  set(Region::kModelTilesMin, "model tile near z", tiles * sizeof(float));
-  set(Region::kModelTilesMax, "model tile far z", tiles * sizeof(float));
   set(Region::kSurfacePoints, "surface points", uint64_t(c.points_max) * sizeof(SurfacePoint));
   set(Region::kMeshScratch, "mesh slice tables",
       uint64_t(MeshScratch::entries_for(c.volume_dim)) * sizeof(uint32_t));
@@ -192,8 +188,6 @@ struct CoreBuffers {
   Vec3f* raycast_normal = nullptr;
   Rgba8* raycast_colour = nullptr;
   DepthTile* depth_tiles = nullptr;
-  float* model_min_z = nullptr;
-  float* model_max_z = nullptr;
   SurfacePoint* points = nullptr;
   MeshScratch mesh_scratch;
   void* pyramid_vertex = nullptr;     //!< Point3<float> or Point3<Fixed> (both 12 bytes)
@@ -238,8 +232,6 @@ struct CoreBuffers {
   FrameScratch scratch(int sensor) const {
     FrameScratch f;
     f.depth_tiles = depth_tiles + std::size_t(sensor) * tiles_per_sensor;
-    f.model_min_z = model_min_z + std::size_t(sensor) * tiles_per_sensor;
-    f.model_max_z = model_max_z + std::size_t(sensor) * tiles_per_sensor;
     f.capacity = tiles_per_sensor;
     return f;
   }

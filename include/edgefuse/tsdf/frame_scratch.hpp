@@ -28,8 +28,6 @@ struct DepthTile {
 struct FrameScratch {
   static constexpr int kTile = 8;  //!< tile edge in pixels
   DepthTile* depth_tiles = nullptr;
-  float* model_min_z = nullptr;
-  float* model_max_z = nullptr;
   std::size_t capacity = 0;        //!< tiles each array holds
 
   static constexpr int tiles_x(int width) { return (width + kTile - 1) / kTile; }
@@ -38,8 +36,7 @@ struct FrameScratch {
     return std::size_t(tiles_x(width)) * std::size_t(tiles_y(height));
   }
   bool fits(int width, int height) const {
-    return depth_tiles != nullptr && model_min_z != nullptr && model_max_z != nullptr &&
-           tiles_for(width, height) <= capacity;
+    return depth_tiles != nullptr && tiles_for(width, height) <= capacity;
   }
 };
 
