@@ -259,6 +259,7 @@ int cmd_localize(int argc, char** argv) {
       std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
       return 1;
     }
+    if (rules) std::printf("sub-unit fill: samples below half a unit fill a voxel up to %d weight units\n", sub_unit_fill);
     WorkerPool pool;
     pool.start(fs.threads);
     if (!push_rig_frames(rs, core, pool, mount, mounted, std::size_t(frames_max), !args.has("no-filter"), false,
