@@ -295,7 +295,7 @@ def main():
              "met" if ok_cov else "NOT met"))
     # Round 5: like for like (the same support rule on the xtion alone), and the full-coverage cloud.
     xe = res["xtion, evidence rule (support 9)"]
-    print("like for like (support 9 on both): fused %.4f mm / %.1f %% against xtion %.4f mm / %.1f %%: median %s, coverage %s"
+    print("against the xtion at support 9 (round 5's like for like): fused %.4f mm / %.1f %% against xtion %.4f mm / %.1f %%: median %s, coverage %s"
           % (fused[2], fused[4], xe[2], xe[4], "below" if fused[2] < xe[2] else "NOT below",
              "above" if fused[4] > xe[4] else "NOT above"))
     xd = res["xtion"]
