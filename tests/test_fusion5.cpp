@@ -177,3 +177,24 @@ TEST(Fusion5, MixedSetFillStopsSubUnitSamplesBelowTheSupportRule) {
   LONGS_EQUAL(kWeightUnitsPerSample, w8_q);
   CHECK(m4 > std::size_t(kDim * kDim / 2));
 }
+
+// fusion5b: a fill outside 1..255 is refused before anything is integrated.
+TEST(Fusion5, BadSubUnitFillRejected) {
+  const PinholeIntrinsics intr = bin_rig_a_tof_camera();
+  Scene scene;
+  scene.add_plane(Vec3f(0, 0, -1), kPlaneZ);
+  std::vector<uint16_t> depth;
+  render(scene, intr, Pose::identity(), depth);
+  TsdfVolume vol;
+  const float half = 0.5f * kDim * kVoxel;
+  CHECK(vol.init(g_storage.view(false), kDim, Vec3f(-half, -half, kPlaneZ - half), TsdfParams::defaults_for(kVoxel, kTrunc)) ==
+        Status::kOk);
+  DepthFrame f;
+  f.depth = ImageView<const uint16_t>(depth.data(), intr.width, intr.height);
+  FrameScratch s = g_buf_f.scratch();
+  for (int bad : {0, -3, 256}) {
+    f.sub_unit_fill_units = bad;
+    CHECK(integrate<float>(vol, intr, g_buf_f.ray_norms(intr), f, Pose::identity(), s) == Status::kInvalidArgument);
+  }
+  LONGS_EQUAL(0, int(vol.observed_voxels()));
+}
