@@ -29,7 +29,8 @@ SurfacePoint g_points[kDim * kDim * 4];
 //! Integrates `frames` noise-free frames of a plane at 0.7 m whose pixels all carry the trust of a
 //! sensor of noise sigma_m; returns the largest weight within trunc/2 of the plane and the crossings at supports 4 and 9.
 template <class Real>
-void plane_frames(float sigma_m, int frames, SensorBuffers<Real>& buf, int& max_w, std::size_t& n4, std::size_t& n9) {
+void plane_frames(float sigma_m, int frames, SensorBuffers<Real>& buf, int& max_w, std::size_t& n4, std::size_t& n9,
+                  int fill_units = kWeightUnitsPerSample, int first_frames = 0, float first_sigma_m = 0.0f) {
   const PinholeIntrinsics intr = bin_rig_a_tof_camera();
   Scene scene;
   scene.add_plane(Vec3f(0, 0, -1), kPlaneZ);
@@ -48,9 +49,20 @@ void plane_frames(float sigma_m, int frames, SensorBuffers<Real>& buf, int& max_
   f.depth = dv;
   f.trust = ImageView<const uint8_t>(trust.data(), intr.width, intr.height);
   f.jump_m = noise_jump_m(sigma_m, kJumpSigmas);
+  f.sub_unit_fill_units = fill_units;
+  // fusion5b: optionally `first_frames` frames of another sensor (noise first_sigma_m) before.
+  std::vector<uint8_t> trust_first(depth.size());
+  DepthFrame f0 = f;
+  if (first_frames > 0) {
+    CHECK(build_trust_map(NoiseModel::constant(first_sigma_m), kSigmaRef, dv, intr.depth_scale, {},
+                          ImageView<uint8_t>(trust_first.data(), intr.width, intr.height)) == Status::kOk);
+    f0.trust = ImageView<const uint8_t>(trust_first.data(), intr.width, intr.height);
+    f0.jump_m = noise_jump_m(first_sigma_m, kJumpSigmas);
+  }
   FrameScratch s = buf.scratch();
   const ImageView<const Real> norms = buf.ray_norms(intr);
   const long before = alloc_count();
+  for (int i = 0; i < first_frames; ++i) CHECK(integrate<Real>(vol, intr, norms, f0, Pose::identity(), s) == Status::kOk);
   for (int i = 0; i < frames; ++i) CHECK(integrate<Real>(vol, intr, norms, f, Pose::identity(), s) == Status::kOk);
   CHECK(extract_points(vol, g_points, sizeof(g_points) / sizeof(g_points[0]), n4, 4) == Status::kOk);
   CHECK(extract_points(vol, g_points, sizeof(g_points) / sizeof(g_points[0]), n9, kEvidenceSupportWeight) == Status::kOk);
@@ -83,6 +95,20 @@ TEST(Fusion5, RuleValues) {
   LONGS_EQUAL(4, default_support_weight(tof_nodata, 2, kSigmaRef));
   LONGS_EQUAL(4, default_support_weight(two_good, 2, kSigmaRef));
   LONGS_EQUAL(kWeightUnitsPerSample + 1, kEvidenceSupportWeight);
+  // fusion5b: a mixed set fills sub-unit samples to 3 (< the support rule's 4), and then needs 4 only.
+  CHECK(kSubUnitFillUnits < kMinSupportWeight);
+  CHECK(mixed_sub_unit_set(xtion_tof, 2, kSigmaRef));
+  CHECK(!mixed_sub_unit_set(tof_only, 1, kSigmaRef) && !mixed_sub_unit_set(xtion_only, 1, kSigmaRef));
+  CHECK(!mixed_sub_unit_set(tof_nodata, 2, kSigmaRef) && !mixed_sub_unit_set(two_good, 2, kSigmaRef));
+  LONGS_EQUAL(kSubUnitFillUnits, default_sub_unit_fill(xtion_tof, 2, kSigmaRef));
+  LONGS_EQUAL(kWeightUnitsPerSample, default_sub_unit_fill(tof_only, 1, kSigmaRef));
+  LONGS_EQUAL(kWeightUnitsPerSample, default_sub_unit_fill(xtion_only, 1, kSigmaRef));
+  LONGS_EQUAL(kWeightUnitsPerSample, default_sub_unit_fill(two_good, 2, kSigmaRef));
+  LONGS_EQUAL(4, default_support_weight(xtion_tof, 2, kSigmaRef, kSubUnitFillUnits));
+  LONGS_EQUAL(9, default_support_weight(xtion_tof, 2, kSigmaRef, kWeightUnitsPerSample));
+  LONGS_EQUAL(9, default_support_weight(xtion_tof, 2, kSigmaRef, kMinSupportWeight));
+  LONGS_EQUAL(4, default_support_weight(tof_only, 1, kSigmaRef, kSubUnitFillUnits));
+  LONGS_EQUAL(kWeightUnitsPerSample, DepthFrame{}.sub_unit_fill_units);  // default: as before round 5b
 }
 
 TEST(Fusion5, MedianSigmaOfAFrame) {
@@ -113,4 +139,62 @@ TEST(Fusion5, SubUnitSamplesNeverReachTheEvidenceRule) {
   CHECK(one4 > std::size_t(kDim * kDim / 2));  // one 1.4 mm frame: 4 units, passes 4 ...
   LONGS_EQUAL(0, one9);                        // ... not 9
   CHECK(three9 > std::size_t(kDim * kDim / 2));  // three frames pass the evidence rule
+}
+
+// fusion5b: with the mixed set's fill, 20 ToF frames alone stop at 3 units (float and Q16.16), so
+// support 4 leaves none of their crossings; one 1.4 mm frame still passes 4. Where the ToF comes
+// after one such frame (4 units) it adds nothing; where it comes first, 3 units against the frame's 4.
+// The default fill (8) gives round 5's volume: the same test above, and here bit for bit.
+TEST(Fusion5, MixedSetFillStopsSubUnitSamplesBelowTheSupportRule) {
+  int w = 0, w_q = 0, w_one = 0, w_after = 0;
+  std::size_t n4 = 0, n9 = 0, n4_q = 0, n9_q = 0, one4 = 0, one9 = 0, a4 = 0, a9 = 0;
+  plane_frames<float>(0.0067f, 20, g_buf_f, w, n4, n9, kSubUnitFillUnits);
+  plane_frames<Fixed>(0.0067f, 20, g_buf_q, w_q, n4_q, n9_q, kSubUnitFillUnits);
+  plane_frames<float>(0.0014f, 1, g_buf_f, w_one, one4, one9, kSubUnitFillUnits);
+  plane_frames<float>(0.0067f, 20, g_buf_f, w_after, a4, a9, kSubUnitFillUnits, 1, 0.0014f);
+  std::printf("\nplane, fill 3: 20 frames at 6.7 mm max weight %d (fixed %d), crossings %zu at support 4; one 1.4 mm "
+              "frame %d, %zu; that frame then 20 ToF frames: %d, %zu\n", w, w_q, n4, w_one, one4, w_after, a4);
+  LONGS_EQUAL(kSubUnitFillUnits, w);  // 20 samples, 3 units stored
+  LONGS_EQUAL(kSubUnitFillUnits, w_q);
+  LONGS_EQUAL(0, n4);                 // a ToF-only voxel never passes the support rule
+  LONGS_EQUAL(0, n4_q);
+  CHECK(one4 > std::size_t(kDim * kDim / 2));  // the xtion's single-frame crossings stay
+  CHECK(w_after <= 4);                         // 4 units, the ToF adds none on top
+  LONGS_EQUAL(one4, a4);
+  // The ToF first (3 units), then the 1.4 mm frame (4): 7 units, the surface passes support 4.
+  int w_first = 0;
+  std::size_t f4 = 0, f9 = 0;
+  plane_frames<float>(0.0014f, 1, g_buf_f, w_first, f4, f9, kSubUnitFillUnits, 20, 0.0067f);  // 20 ToF frames first
+  CHECK(w_first <= kSubUnitFillUnits + 4);
+  CHECK(f4 > std::size_t(kDim * kDim / 2));
+  LONGS_EQUAL(0, f9);
+  // Default fill: the round-5 figures (at most 8 units, crossings at 4 as before).
+  int w8 = 0, w8_q = 0;
+  std::size_t m4 = 0, m9 = 0, m4_q = 0, m9_q = 0;
+  plane_frames<float>(0.0067f, 20, g_buf_f, w8, m4, m9);
+  plane_frames<Fixed>(0.0067f, 20, g_buf_q, w8_q, m4_q, m9_q);
+  LONGS_EQUAL(kWeightUnitsPerSample, w8);
+  LONGS_EQUAL(kWeightUnitsPerSample, w8_q);
+  CHECK(m4 > std::size_t(kDim * kDim / 2));
+}
+
+// fusion5b: a fill outside 1..255 is refused before anything is integrated.
+TEST(Fusion5, BadSubUnitFillRejected) {
+  const PinholeIntrinsics intr = bin_rig_a_tof_camera();
+  Scene scene;
+  scene.add_plane(Vec3f(0, 0, -1), kPlaneZ);
+  std::vector<uint16_t> depth;
+  render(scene, intr, Pose::identity(), depth);
+  TsdfVolume vol;
+  const float half = 0.5f * kDim * kVoxel;
+  CHECK(vol.init(g_storage.view(false), kDim, Vec3f(-half, -half, kPlaneZ - half), TsdfParams::defaults_for(kVoxel, kTrunc)) ==
+        Status::kOk);
+  DepthFrame f;
+  f.depth = ImageView<const uint16_t>(depth.data(), intr.width, intr.height);
+  FrameScratch s = g_buf_f.scratch();
+  for (int bad : {0, -3, 256}) {
+    f.sub_unit_fill_units = bad;
+    CHECK(integrate<float>(vol, intr, g_buf_f.ray_norms(intr), f, Pose::identity(), s) == Status::kInvalidArgument);
+  }
+  LONGS_EQUAL(0, int(vol.observed_voxels()));
 }

@@ -189,12 +189,14 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   CHECK_TRUE(p->camera_stream(1).integrated >= 2);
   // fusion5: the map takes the rules of `edgefuse fuse --sensors` (fusion_rules.hpp): each fused
   // frame's median noise sets its depth-jump limit, and a set mixing the ToF's sub-unit samples
-  // with the xtion's extracts with the evidence rule (support 9).
+  // with the xtion's extracts with the evidence rule (support 9). fusion5b: such a set fills sub-unit
+  // samples only to 3 units, so its support rule is 4 again (fusion_rules.hpp rule 3).
   CHECK_TRUE(p->camera_stream(0).sigma_frames >= 2 && p->camera_stream(1).sigma_frames >= 2);
   const float sigma_ref_m = 0.5f * c.voxel_m;  // the pipeline's trust reference
   CHECK_FALSE(sub_unit_sensor(p->camera_stream(0).median_sigma(), sigma_ref_m));
   CHECK_TRUE(sub_unit_sensor(p->camera_stream(1).median_sigma(), sigma_ref_m));
-  LONGS_EQUAL(kEvidenceSupportWeight, p->map_support_weight());
+  LONGS_EQUAL(kSubUnitFillUnits, p->map_sub_unit_fill());
+  LONGS_EQUAL(kMinSupportWeight, p->map_support_weight());
   // The tof's newest frame against the map (the sim rig sways slowly: within the pairing window).
   runtime::PairCalibrationReport r;
   bool ok = false;

@@ -42,7 +42,7 @@ bool sub_unit_sensor(float median_sigma_m, float sigma_ref_m) {
   return float(kWeightUnitsPerSample) * r * r < 0.5f;
 }
 
-uint8_t default_support_weight(const float* median_sigma_m, int cameras, float sigma_ref_m) {
+bool mixed_sub_unit_set(const float* median_sigma_m, int cameras, float sigma_ref_m) {
   bool sub = false, unit = false;
   for (int i = 0; i < cameras; ++i) {
     if (!(median_sigma_m[i] > 0.0f)) continue;
@@ -51,7 +51,18 @@ uint8_t default_support_weight(const float* median_sigma_m, int cameras, float s
     else
       unit = true;
   }
-  return sub && unit ? kEvidenceSupportWeight : kMinSupportWeight;
+  return sub && unit;
+}
+
+int default_sub_unit_fill(const float* median_sigma_m, int cameras, float sigma_ref_m) {
+  return mixed_sub_unit_set(median_sigma_m, cameras, sigma_ref_m) ? kSubUnitFillUnits : kWeightUnitsPerSample;
+}
+
+uint8_t default_support_weight(const float* median_sigma_m, int cameras, float sigma_ref_m, int sub_unit_fill_units) {
+  // A fill below the support rule can not make a sub-unit-only voxel pass it: half a sample suffices.
+  return mixed_sub_unit_set(median_sigma_m, cameras, sigma_ref_m) && sub_unit_fill_units >= kMinSupportWeight
+             ? kEvidenceSupportWeight
+             : kMinSupportWeight;
 }
 
 }  // namespace edgefuse

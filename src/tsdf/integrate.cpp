@@ -269,6 +269,8 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
   const float jump = std::round((frame.jump_m > p.trunc_m ? frame.jump_m : p.trunc_m) * intr.depth_scale);
   job.jump_raw = jump < 1.0f ? 1u : (jump > 65535.0f ? 65535u : uint32_t(jump));
   job.jump = job.depth.metres(uint16_t(job.jump_raw));
+  if (frame.sub_unit_fill_units < 1 || frame.sub_unit_fill_units > 255) return Status::kInvalidArgument;
+  job.sub_unit_fill = frame.sub_unit_fill_units;
   job.frame = frame;
   job.ray_norms = ray_norms;
   build_depth_tiles(frame.depth, scratch.depth_tiles);
@@ -442,7 +444,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               if (w == 0) continue;
             }
             if (has_trust) {
-              w = voxel_update::scale_by_trust(w, job.frame.trust.at(iu, iv), weight[idx]);
+              w = voxel_update::scale_by_trust(w, job.frame.trust.at(iu, iv), weight[idx], job.sub_unit_fill);
               if (w == 0) continue;
             }
             int32_t q = d >= trunc ? kTsdfMax : round_int(d * inv_trunc * q_scale);

@@ -38,12 +38,15 @@ inline uint8_t cap_weight(int32_t w, uint8_t max_weight) { return uint8_t(w > ma
 //     alike, as they should;
 //   - is skipped where the voxel already holds at least one full sample: one unit would give it
 //     several times its share against the better sensor's samples (rounding to nearest).
-inline int32_t scale_by_trust(int32_t w, uint32_t trust_255, int32_t old_weight) {
+// fill_units (DepthFrame::sub_unit_fill_units) is where the first case stops: 8 (one full
+// sample) by default; a mixed set (fusion_rules.hpp) lowers it below the support rule's 4 so that
+// a voxel seen only by sub-unit samples never passes as half a full sample (round 5b).
+inline int32_t scale_by_trust(int32_t w, uint32_t trust_255, int32_t old_weight, int32_t fill_units = 8) {
   if (trust_255 >= 255u) return w;
   if (trust_255 == 0u) return 0;
   const int32_t s = int32_t((uint32_t(w) * trust_255 + 127u) / 255u);
   if (s > 0) return s;
-  return old_weight < 8 ? 1 : 0;
+  return old_weight < fill_units ? 1 : 0;
 }
 
 }  // namespace voxel_update

@@ -8,6 +8,8 @@ of the 8 voxels around the point is at least W); all other options at their defa
 --origin. Each cloud is scored as in fusion_bench.py: median / 95th percentile distance to the true
 meshes and coverage of the visible true surface within 2 mm; "only-xtion-less" counts the points
 more than 2 mm from the xtion-alone cloud of the same rule (the other sensors' own surface).
+Since round 5b a mixed set's sub-unit samples fill a voxel only to 3 units (fusion_rules.hpp rule 3);
+`--extra "--sub-unit-fill 8"` gives round 5's table.
 
   /usr/bin/python3 tools/bench/fusion_support_sweep.py [--rig ../shared/data/bin_rig_a]
         [--edgefuse build/host/tools/edgefuse] [--support 0,1,2,3,4,6,8,9,12,16,24,32]

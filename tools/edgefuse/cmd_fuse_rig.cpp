@@ -31,6 +31,7 @@ const char* kUsage =
     "                     [--no-paint] [--no-filter] [--tof-bilateral] [--register-laser] [--laser-patch N]\n"
     "                     [--laser-6dof] [--laser-min-eigen R] [--laser-offset tx,ty,tz,rx,ry,rz]\n"
     "                     [--max-sigma M] [--min-support W | --full-coverage] [--min-weight W] [--jump-sigmas K]\n"
+    "                     [--sub-unit-fill N]\n"
     "  Fuses the listed sensors of a rig set into one space. Pinhole sensors are placed by\n"
     "  --extrinsics: 'true' (default) = each sensor's own groundtruth.txt; 'calibrated' = the\n"
     "  reference camera's poses (the first listed with colour, else the first pinhole) times the\n"
@@ -48,13 +49,16 @@ const char* kUsage =
     "  --max-sigma M: pixels whose modelled noise exceeds M metres are not integrated (default 0: all;\n"
     "  half the truncation is the noise the space can hold; needs the noise models, not with --no-trust).\n"
     "  --min-support W: a surface point needs both voxels of its zero crossing to hold at least W weight\n"
-    "  units (1/8 of a full-trust sample, weight (sigma_ref/sigma)^2; 0: off). Default with the noise models\n"
-    "  (the evidence rule): 9 when the set mixes a camera whose samples weigh less than half a unit\n"
-    "  (noise above 4 x sigma_ref: the ToF) with one whose samples weigh more (the Xtion) - a point then\n"
-    "  needs more support than sub-unit samples alone can store, i.e. the accuracy of a frame of the\n"
-    "  better camera, so the fused cloud is not less accurate than it; else 4 (half a sample: one Xtion\n"
-    "  frame at 0.7 m). --full-coverage: 4 for every set (round 4's cloud: the ToF-only surface too, at\n"
-    "  the ToF's accuracy). --min-weight W: also drop points none of whose 8 voxels holds W.\n"
+    "  units (1/8 of a full-trust sample, weight (sigma_ref/sigma)^2; 0: off). Default with the noise models:\n"
+    "  4 (half a sample: one Xtion frame at 0.7 m); 9 (the evidence rule of round 5) only when the set\n"
+    "  mixes a camera whose samples weigh less than half a unit (noise above 4 x sigma_ref: the ToF) with\n"
+    "  a better one and --sub-unit-fill is 4 or more - then a point needs more support than sub-unit samples\n"
+    "  alone can store. --full-coverage: fill 8 and support 4 (round 4's cloud: the ToF-only surface too,\n"
+    "  at the ToF's accuracy). --min-weight W: also drop points none of whose 8 voxels holds W.\n"
+    "  --sub-unit-fill N: samples worth less than half a weight unit (the ToF next to the Xtion) still fill\n"
+    "  a voxel, one unit each, up to N units (1-255). Default: 3 for a set that mixes such a camera with a\n"
+    "  better one (below the support rule's 4: a voxel only the ToF saw is never emitted, and the default\n"
+    "  support rule is then 4, not 9), else 8 (one sample); 8 with --full-coverage.\n"
     "  --jump-sigmas K: a depth difference of more than K x the frame's median modelled\n"
     "  noise (at least the truncation, at most 1 m) between neighbouring pixels is a discontinuity (default\n"
     "  2.83, up to 10; 0: the truncation, as before round 4).\n";
@@ -76,7 +80,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   if (!args.parse(argc, argv,
                   {"sensors", "extrinsics", "frames", "voxel", "trunc", "volume", "origin", "out", "mesh", "threads",
                    "guess", "sigma-ref", "min-weight", "laser-patch", "laser-offset", "laser-min-eigen", "max-sigma",
-                   "min-support", "jump-sigmas"},
+                   "min-support", "jump-sigmas", "sub-unit-fill"},
                   {"no-trust", "no-paint", "no-filter", "register-laser", "laser-6dof", "tof-bilateral", "full-coverage"},
                   err) ||
       args.positional().size() != 1) {
@@ -152,6 +156,8 @@ int cmd_fuse_rig(int argc, char** argv) {
   // Both need the noise models (with --no-trust every sample is a full one).
   // Round 5: the support rule's default follows the set (fusion_rules.hpp, evidence rule), decided
   // after the push from each camera's median noise; --min-support / --full-coverage fix it.
+  // Round 5b: in a mixed set sub-unit samples fill a voxel only up to 3 units, so the support
+  // rule's default is 4 again (fusion_rules.hpp rule 3).
   int min_support = use_trust ? kMinSupportWeight : 0;
   float jump_sigmas = use_trust ? kJumpSigmas : 0.0f;
   if (!args.get_int("min-support", 0, 255, min_support, err) || !args.get_float("jump-sigmas", 0.0f, 10.0f, jump_sigmas, err))
@@ -161,6 +167,15 @@ int cmd_fuse_rig(int argc, char** argv) {
   const bool support_by_set = use_trust && !args.has("min-support") && !args.has("full-coverage");
   if (jump_sigmas > 0.0f && !use_trust) return fail("--jump-sigmas needs the noise models (not with --no-trust)", 2);
   for (PinholeSlot& c : cams) c.jump_sigmas = jump_sigmas;
+  // Round 5b: how far sub-unit samples fill a voxel (fusion_rules.hpp rule 3): follows the set
+  // (decided before the push), 8 with --full-coverage (round 4's cloud), or --sub-unit-fill N.
+  int sub_unit_fill = kWeightUnitsPerSample;
+  if (!args.get_int("sub-unit-fill", 1, 255, sub_unit_fill, err)) return fail(err, 2);
+  if (args.has("sub-unit-fill") && !use_trust) return fail("--sub-unit-fill needs the noise models (not with --no-trust)", 2);
+  if (args.has("sub-unit-fill") && args.has("full-coverage"))
+    return fail("--full-coverage and --sub-unit-fill exclude each other", 2);
+  const bool fill_by_set = use_trust && !args.has("sub-unit-fill") && !args.has("full-coverage");
+  for (PinholeSlot& c : cams) c.sub_unit_fill_units = sub_unit_fill;
 
   // Volume placement.
   if (!settings.origin_given && !place_rig_volume(rs, settings, err)) return fail(err);
@@ -213,6 +228,10 @@ int cmd_fuse_rig(int argc, char** argv) {
     }
   }
 
+  if (fill_by_set && !plan_sub_unit_fill(rs, filter, sigma_ref, filter_scratch, sub_unit_fill, err)) return fail(err);
+  if (use_trust) std::printf("sub-unit fill: samples below half a unit fill a voxel up to %d weight units (%s)\n",
+                             sub_unit_fill, fill_by_set ? (sub_unit_fill == kSubUnitFillUnits ? "default, mixed set" : "default")
+                                                        : (args.has("full-coverage") ? "--full-coverage" : "--sub-unit-fill"));
   WorkerPool pool;
   pool.start(settings.threads);
   const auto t_start = std::chrono::steady_clock::now();
@@ -239,7 +258,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   if (support_by_set) {
     std::vector<float> sigma;
     for (const PinholeSlot& c : cams) sigma.push_back(c.median_sigma());
-    min_support = default_support_weight(sigma.data(), int(sigma.size()), sigma_ref);
+    min_support = default_support_weight(sigma.data(), int(sigma.size()), sigma_ref, sub_unit_fill);
   }
   if (use_trust)
     std::printf("support rule: both voxels of a crossing hold >= %d weight units (%s)\n", min_support,

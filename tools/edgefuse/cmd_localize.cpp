@@ -56,7 +56,7 @@ const char* kUsage =
     "  --sensors A,B,..: fuse these sensors of a rig set (as `edgefuse fuse --sensors`: pre-filters, noise-model\n"
     "  trust, line scanners) into the one space that is localised in; the viewpoint is the first colour camera's;\n"
     "  with [--no-filter] [--no-trust] [--min-weight W] (as for `edgefuse fuse`); [--fusion-rules]: also the noise\n"
-    "  rules of `edgefuse fuse --sensors` (depth jump 2.83 sigma, support rule by set; off by default: BENCHMARKS\n"
+    "  rules of `edgefuse fuse --sensors` (depth jump 2.83 sigma, sub-unit fill and support rule by set; off by default: BENCHMARKS\n"
     "  \"Multi-sensor fusion, round 5\"), or [--min-support W] [--jump-sigmas K] given alone.\n"
     "  Poses: one line per object `id tx ty tz qx qy qz qw score model` (T_world_object; id = picking rank).\n"
     "  --check-truth (rig sets): also verifies every true object pose of objects.txt (at the truth and after ICP\n"
@@ -253,6 +253,13 @@ int cmd_localize(int argc, char** argv) {
     }
     const std::vector<Pose> mount(rs.cams.size());
     const std::vector<char> mounted(rs.cams.size(), 0);
+    // fusion5b: with the rules, sub-unit samples of a mixed set fill a voxel only up to 3 units.
+    int sub_unit_fill = kWeightUnitsPerSample;
+    if (rules && !plan_sub_unit_fill(rs, !args.has("no-filter"), 0.5f * fs.voxel_m, filter_scratch, sub_unit_fill, err)) {
+      std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
+      return 1;
+    }
+    if (rules) std::printf("sub-unit fill: samples below half a unit fill a voxel up to %d weight units\n", sub_unit_fill);
     WorkerPool pool;
     pool.start(fs.threads);
     if (!push_rig_frames(rs, core, pool, mount, mounted, std::size_t(frames_max), !args.has("no-filter"), false,
@@ -278,7 +285,7 @@ int cmd_localize(int argc, char** argv) {
     if (min_support < 0 && rules) {
       std::vector<float> sigma;
       for (const PinholeSlot& c : rs.cams) sigma.push_back(c.median_sigma());
-      min_support = default_support_weight(sigma.data(), int(sigma.size()), 0.5f * fs.voxel_m);
+      min_support = default_support_weight(sigma.data(), int(sigma.size()), 0.5f * fs.voxel_m, sub_unit_fill);
     }
     if (min_support > 0) std::printf("support rule: both voxels of a crossing hold >= %d weight units\n", min_support);
     const Status xs = extract_points(core.volume, buffers.points, cap, surface_count,

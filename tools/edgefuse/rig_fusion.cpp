@@ -69,6 +69,7 @@ bool PinholeSlot::stage(std::size_t i, bool filter, bool with_colour, float sigm
   }
   frame = DepthFrame{};
   frame.depth = depth;
+  frame.sub_unit_fill_units = sub_unit_fill_units;
   if (with_colour && !f.colour_path.empty()) {
     if (!io::load_colour(f, intr, load_colour, err)) return false;
     std::copy(load_colour.begin(), load_colour.end(), colour.data);
@@ -356,6 +357,35 @@ bool place_rig_volume(RigSensors& rs, FuseSettings& settings, std::string& err) 
     std::nth_element(c[a].begin(), c[a].begin() + std::ptrdiff_t(c[a].size() / 2), c[a].end());
     settings.origin_m(a) = c[a][c[a].size() / 2] - 0.5f * float(settings.dim) * settings.voxel_m;
   }
+  return true;
+}
+
+bool plan_sub_unit_fill(RigSensors& rs, bool filter, float sigma_ref_m, ImageView<uint16_t> filter_scratch, int& fill,
+                        std::string& err) {
+  fill = kWeightUnitsPerSample;
+  if (!(sigma_ref_m > 0.0f)) return true;
+  std::vector<float> sigma;
+  for (PinholeSlot& cam : rs.cams) {
+    if (cam.seq.frames.empty()) {
+      sigma.push_back(0.0f);
+      continue;
+    }
+    // The report's counters are left as they were (the slot's buffers are restaged by the push).
+    const std::size_t staged = cam.staged_pixels, gated = cam.gated_pixels, jumps = cam.jump_frames;
+    const std::size_t sigmas = cam.sigma_frames;
+    const double jump_sum = cam.jump_m_sum, sigma_sum = cam.sigma_sum_m;
+    DepthFrame f;
+    if (!cam.stage(0, filter, false, sigma_ref_m, filter_scratch, f, err)) return false;
+    sigma.push_back(cam.median_sigma());
+    cam.staged_pixels = staged;
+    cam.gated_pixels = gated;
+    cam.jump_m_sum = jump_sum;
+    cam.jump_frames = jumps;
+    cam.sigma_sum_m = sigma_sum;
+    cam.sigma_frames = sigmas;
+  }
+  fill = default_sub_unit_fill(sigma.data(), int(sigma.size()), sigma_ref_m);
+  for (PinholeSlot& cam : rs.cams) cam.sub_unit_fill_units = fill;
   return true;
 }
 

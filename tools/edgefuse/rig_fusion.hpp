@@ -49,6 +49,8 @@ struct PinholeSlot {
   //! Noise-aware depth discontinuity (with a trust map only; 0: off, the truncation as always):
   //! a staged frame's DepthFrame::jump_m = jump_sigmas x the median modelled noise of its pixels.
   float jump_sigmas = 0.0f;
+  //! DepthFrame::sub_unit_fill_units of its staged frames (8: one full sample; fusion_rules.hpp).
+  int sub_unit_fill_units = kWeightUnitsPerSample;
   double jump_m_sum = 0.0;        //!< sum of the jump_m set (for the report)
   std::size_t jump_frames = 0;    //!< frames it was set for
   double sigma_sum_m = 0.0;       //!< sum of the staged frames' median modelled noise (with a trust map)
@@ -142,6 +144,14 @@ bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const st
                      const std::vector<char>& mounted, std::size_t frames_max, bool filter, bool colour_ref,
                      float sigma_ref_m, ImageView<uint16_t> filter_scratch, std::string& err, bool verbose,
                      const LaserPushOptions& laser = LaserPushOptions());
+
+//! Round 5b: the set's sub-unit fill (fusion_rules.hpp default_sub_unit_fill), decided before the
+//! push from each camera's first frame (staged as the push will, counters left untouched), set on
+//! every camera (PinholeSlot::sub_unit_fill_units).
+//! \param rs bound sensors  \param filter pre-filter as the push  \param sigma_ref_m trust reference (0: none, fill 8)
+//! \param filter_scratch spare image  \param fill the fill set  \param err error text
+bool plan_sub_unit_fill(RigSensors& rs, bool filter, float sigma_ref_m, ImageView<uint16_t> filter_scratch, int& fill,
+                        std::string& err);
 
 //! Confidence of a fused surface point: the largest weight of the 8 voxels around it (weight units:
 //! 1/8 sample x trust), i.e. how much data supports the surface there.

@@ -635,6 +635,16 @@ void FusionPipeline::apply_noise_jump(CameraStream& c, DepthFrame& f, const hal:
   c.sigma_sum_m += sigma_m;
   ++c.sigma_frames;
   f.jump_m = noise_jump_m(sigma_m, kJumpSigmas);
+  // Round 5b (fusion_rules.hpp rule 3): in a mixed set sub-unit samples fill a voxel only up to 3
+  // units. Decided from the medians so far, this frame's included, so a sub-unit camera's frames all
+  // take it (the reference camera's frames before the first of them keep 8: its own sub-unit pixels).
+  f.sub_unit_fill_units = map_sub_unit_fill();
+}
+
+int FusionPipeline::map_sub_unit_fill() const {
+  float sigma[kCamerasMax] = {};
+  for (int k = 0; k < fuse_count_; ++k) sigma[k] = cams_[order_[k]].median_sigma();
+  return default_sub_unit_fill(sigma, fuse_count_, 0.5f * fuse_.voxel_m);
 }
 
 uint8_t FusionPipeline::map_support_weight() const {
@@ -643,7 +653,7 @@ uint8_t FusionPipeline::map_support_weight() const {
   for (int k = 0; k < fuse_count_; ++k) {
     sigma[k] = cams_[order_[k]].median_sigma();
   }
-  return default_support_weight(sigma, fuse_count_, 0.5f * fuse_.voxel_m);
+  return default_support_weight(sigma, fuse_count_, 0.5f * fuse_.voxel_m, map_sub_unit_fill());
 }
 
 // A new map is centred on the median of what its first frame sees (the bin), as `edgefuse fuse`

@@ -118,6 +118,8 @@ class FusionPipeline final : public runtime::Pipeline {
   //! Support rule of the map's extraction (fusion_rules.hpp, as `edgefuse fuse --sensors` for the
   //! fused cameras' median noise so far): 0 for one camera without a scanner (equal weights).
   uint8_t map_support_weight() const;
+  //! fusion5b: sub-unit fill of the fused cameras (fusion_rules.hpp default_sub_unit_fill, medians so far).
+  int map_sub_unit_fill() const;
 
   //! Largest stamp difference between a camera's frame and the reference frame whose pose it takes.
   static constexpr uint64_t kPairWindowUs = 40000;

@@ -19,6 +19,13 @@
 //      of 6.7 mm average to 1.5 mm, one Xtion frame is 1.4 mm), and its stored weights can not be
 //      told from a good sensor's below 9 - so the fused cloud keeps the good sensors' surface where
 //      it has more than one unit-sized sample, the ToF adds weight only where it agrees with them.
+// 3. Sub-unit fill of a mixed set (round 5b, BENCHMARKS "Multi-sensor fusion, round 5b"): rule 2's
+//    9 also drops the good sensor's crossings seen by one frame (4 units). Instead, in a set that
+//    mixes a sub-unit camera with a unit-sized one, sub-unit samples fill a voxel only up to
+//    kSubUnitFillUnits (3 < kMinSupportWeight; DepthFrame::sub_unit_fill_units) rather than 8: a
+//    voxel seen only by the ToF never passes support 4 (its real evidence, 1.4 units after 8 samples,
+//    is below half a reference sample anyway), so the support rule returns to 4 for every set; where
+//    the ToF arrives first its samples weigh 3 units against a good frame's 4, not 8.
 #pragma once
 
 #include <cstdint>
@@ -53,11 +60,28 @@ float noise_jump_m(float median_sigma_m, float jump_sigmas);
 //! \param median_sigma_m its median noise  \param sigma_ref_m the trust reference (full weight)
 bool sub_unit_sensor(float median_sigma_m, float sigma_ref_m);
 
-//! Default support rule of a set of pinhole sensors (line scanners are not wide-field and weigh
-//! more than a unit): kEvidenceSupportWeight when the set holds both a sub-unit sensor and one whose
-//! samples weigh at least one unit, else kMinSupportWeight.
+//! Sub-unit fill of a mixed set (rule 3): below the support rule's kMinSupportWeight.
+inline constexpr int kSubUnitFillUnits = 3;
+
+//! Whether a set of pinhole sensors holds both a sub-unit sensor and one whose samples weigh at
+//! least one unit (line scanners are not wide-field and weigh more than a unit).
 //! \param median_sigma_m each camera's median noise (0: no data, ignored)  \param cameras count
 //! \param sigma_ref_m the trust reference
-uint8_t default_support_weight(const float* median_sigma_m, int cameras, float sigma_ref_m);
+bool mixed_sub_unit_set(const float* median_sigma_m, int cameras, float sigma_ref_m);
+
+//! Default DepthFrame::sub_unit_fill_units of a set: kSubUnitFillUnits when it is mixed
+//! (mixed_sub_unit_set), else kWeightUnitsPerSample (one full sample, as before round 5b).
+//! \param median_sigma_m each camera's median noise (0: no data, ignored)  \param cameras count
+//! \param sigma_ref_m the trust reference
+int default_sub_unit_fill(const float* median_sigma_m, int cameras, float sigma_ref_m);
+
+//! Default support rule of a set of pinhole sensors: kEvidenceSupportWeight when the set is mixed
+//! (mixed_sub_unit_set) and its sub-unit samples filled voxels up to kMinSupportWeight or more,
+//! else kMinSupportWeight (with the mixed set's default fill, kSubUnitFillUnits: 4).
+//! \param median_sigma_m each camera's median noise (0: no data, ignored)  \param cameras count
+//! \param sigma_ref_m the trust reference
+//! \param sub_unit_fill_units the fill the frames were integrated with (DepthFrame::sub_unit_fill_units)
+uint8_t default_support_weight(const float* median_sigma_m, int cameras, float sigma_ref_m,
+                               int sub_unit_fill_units = kWeightUnitsPerSample);
 
 }  // namespace edgefuse

@@ -53,6 +53,11 @@ struct DepthFrame {
   //! and most of its samples are dropped - selectively: at slopes only those whose noise happens
   //! to cancel the slope pass (BENCHMARKS "Multi-sensor fusion, round 4").
   float jump_m = 0.0f;
+  //! Weight units up to which samples worth less than half a unit (trust map) still fill a voxel,
+  //! one unit each (voxel_update.hpp scale_by_trust), 1..255: 8 (one full sample, the default) keeps
+  //! a noisy sensor's lone surface; a mixed set lowers it below the support rule
+  //! (fusion_rules.hpp kSubUnitFillUnits) so such a voxel never passes for a good sensor's frame.
+  int sub_unit_fill_units = kWeightUnitsPerSample;
 };
 
 //! Everything integrate_bricks needs, converted once per frame to the kernel scalar.
@@ -76,6 +81,7 @@ struct IntegrationJob {
   //! surface is updated; distances, weights and free space are left alone.
   bool colour_only = false;
   uint32_t jump_raw = 0;     //!< raw depth difference counted as a discontinuity (frame.jump_m, else trunc)
+  int32_t sub_unit_fill = kWeightUnitsPerSample;  //!< frame.sub_unit_fill_units
   Real jump;                 //!< the same in metres
   DepthFrame frame;
   ImageView<const Real> ray_norms;
