@@ -22,27 +22,55 @@ inline uint32_t max4(uint32_t a, uint32_t b, uint32_t c, uint32_t d) {
   return ab > cd ? ab : cd;
 }
 
-// Measured z-depth at the projection (pu, pv) of a voxel; `nearest` is the raw depth of the
-// nearest pixel.
+// floor(pu) of a lane with nearest pixel iu (pu within [-0.5, size - 0.5)) and pu - floor(pu).
+// Float: iu = floor(pu + 0.5) of the rounded sum, so floor(pu) is iu where pu >= iu and iu - 1
+// otherwise (also when the sum rounded up to iu): one comparison instead of floor_int's two
+// conversions; the same values. Fixed point: floor_int (a shift).
+inline int floor_of_near(float pu, int iu, float& frac) {
+  const float f = float(iu);
+  const bool below = pu < f;
+  frac = pu - (below ? f - 1.0f : f);  // f - 1 is exact: |iu| < 2^24
+  return below ? iu - 1 : iu;
+}
+inline int floor_of_near(Fixed pu, int, Fixed& frac) {
+  const int u0 = floor_int(pu);
+  frac = pu - Fixed::from_int(u0);
+  return u0;
+}
+
+// What depth_at reads, held in locals of the voxel loop (the voxel stores through uint8_t
+// pointers may alias the job, whose members would be reloaded after every store).
+template <class Real>
+struct DepthLookup {
+  const uint16_t* px;         // depth pixels
+  std::ptrdiff_t stride;      // row stride in pixels
+  uint32_t last_u, last_v;    // width - 1, height - 1: the 2x2 pixels from (u0, v0) fit when u0 < last_u
+  uint32_t jump_raw;          // largest raw step interpolated across
+  DepthScale<Real> scale;
+};
+
+// Measured z-depth at the projection (pu, pv) of a voxel whose nearest pixel (iu, iv) lies at
+// index `pix` and holds the raw depth `nearest`.
 // Bilinear over the 4 surrounding pixels when all are valid and within a depth jump of each other;
 // the nearest pixel when some are missing (or at the border); false at a discontinuity or no data.
 template <class Real>
-bool depth_at(const IntegrationJob<Real>& job, Real pu, Real pv, uint32_t nearest, Real& z) {
-  const ImageView<const uint16_t>& img = job.frame.depth;
-  const int u0 = floor_int(pu), v0 = floor_int(pv);
-  if (u0 >= 0 && v0 >= 0 && u0 + 1 < job.width && v0 + 1 < job.height) {
-    const uint16_t* r0 = img.row(v0) + u0;
-    const uint16_t* r1 = img.row(v0 + 1) + u0;
+inline bool depth_at(const DepthLookup<Real>& dl, Real pu, Real pv, int iu, int iv, std::ptrdiff_t pix,
+                     uint32_t nearest, Real& z) {
+  Real fu, fv;
+  const int u0 = floor_of_near(pu, iu, fu), v0 = floor_of_near(pv, iv, fv);
+  if (uint32_t(u0) < dl.last_u && uint32_t(v0) < dl.last_v) {
+    // (u0, v0) is the nearest pixel or its neighbour to the left / above.
+    const uint16_t* r0 = dl.px + (pix - (iu - u0) - (iv - v0) * dl.stride);
+    const uint16_t* r1 = r0 + dl.stride;
     const uint32_t q[4] = {r0[0], r0[1], r1[0], r1[1]};
     // Min / max without branches: 0 (no depth) is the smallest raw value, so min(q) != 0 says all
     // four are valid; only then is the bilinear test decided (the common case). The valid minimum
     // for the jump test below replaces missing pixels by the largest raw value.
     const uint32_t hi = max4(q[0], q[1], q[2], q[3]);
     const uint32_t lo_all = min4(q[0], q[1], q[2], q[3]);
-    if (lo_all != 0 && hi - lo_all <= job.jump_raw) {
-      const Real fu = pu - real_from_int<Real>(u0), fv = pv - real_from_int<Real>(v0);
-      const Real a = job.depth.metres(uint16_t(q[0])), b = job.depth.metres(uint16_t(q[1]));
-      const Real c = job.depth.metres(uint16_t(q[2])), e = job.depth.metres(uint16_t(q[3]));
+    if (lo_all != 0 && hi - lo_all <= dl.jump_raw) {
+      const Real a = dl.scale.metres(uint16_t(q[0])), b = dl.scale.metres(uint16_t(q[1]));
+      const Real c = dl.scale.metres(uint16_t(q[2])), e = dl.scale.metres(uint16_t(q[3]));
       const Real top = a + (b - a) * fu, bottom = c + (e - c) * fu;
       z = top + (bottom - top) * fv;
       return true;
@@ -52,11 +80,11 @@ bool depth_at(const IntegrationJob<Real>& job, Real pu, Real pv, uint32_t neares
     const uint32_t lo = lo_all != 0 ? lo_all
                                     : min4(q[0] ? q[0] : 0xffffu, q[1] ? q[1] : 0xffffu, q[2] ? q[2] : 0xffffu,
                                            q[3] ? q[3] : 0xffffu);
-    if (hi > nearest + job.jump_raw || nearest > lo + job.jump_raw) return false;
+    if (hi > nearest + dl.jump_raw || nearest > lo + dl.jump_raw) return false;
   } else if (nearest == 0) {
     return false;
   }
-  z = job.depth.metres(uint16_t(nearest));
+  z = dl.scale.metres(uint16_t(nearest));
   return true;
 }
 
@@ -350,6 +378,12 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
   const ImageView<const Real> ray_norms = job.ray_norms;
   const ImageView<const Rgb8> colour_px = job.frame.colour;
   const LaneCamera<Real> cam = {job.fx, job.fy, job.cx, job.cy, job.width, job.height, float(job.width), float(job.height)};
+  const DepthLookup<Real> dl = {job.frame.depth.data, std::ptrdiff_t(job.frame.depth.stride), uint32_t(job.width - 1),
+                                uint32_t(job.height - 1), job.jump_raw, job.depth};
+  const DepthScale<Real> scale = job.depth;
+  // The ray norms are read at the nearest pixel's depth index when both images share a stride
+  // (they always do in this code base: full-width views).
+  const bool norms_share_index = ray_norms.stride == job.frame.depth.stride;
 
   // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
   // span: from the brick's first to its last voxel centre along each axis.
@@ -417,9 +451,10 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
             // Cheap exits on the nearest pixel before interpolating: no data; certainly occluded
             // (an interpolated depth is at most a depth jump beyond the nearest pixel's);
             // certainly free space (every pixel around is at least trunc beyond the voxel).
-            const uint16_t nearest = job.frame.depth.at(iu, iv);
+            const std::ptrdiff_t pix = std::ptrdiff_t(iv) * dl.stride + iu;
+            const uint16_t nearest = dl.px[pix];
             if (nearest == 0) continue;
-            const Real z_near = job.depth.metres(nearest);
+            const Real z_near = scale.metres(nearest);
             if (z_near + jump - vz < minus_rho) continue;
             const std::size_t idx = row + std::size_t(lx);
             if (colour_only && (colour == nullptr || weight[idx] == 0)) continue;
@@ -427,7 +462,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
             // than trunc in front of its nearest pixel cannot pass the free-space test: the tile is
             // read only for the others (same decisions, monotone roundings).
             if (z_near - vz >= trunc &&
-                job.depth.metres(tiles[std::size_t(iv >> 3) * tiles_x + std::size_t(iu >> 3)].near_raw) - vz >= trunc &&
+                scale.metres(tiles[std::size_t(iv >> 3) * tiles_x + std::size_t(iu >> 3)].near_raw) - vz >= trunc &&
                 z_near <= max_z && z_near >= min_z) {
               if (colour_only) continue;
               const int32_t old_w = weight[idx];
@@ -440,10 +475,10 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               continue;
             }
             Real z;
-            if (!depth_at(job, pu, pv, nearest, z)) continue;
+            if (!depth_at(dl, pu, pv, iu, iv, pix, nearest, z)) continue;
             if (z < min_z || z > max_z) continue;
             // Eq. (1): (measured range) - (voxel range) along the ray = (z - p.z) |ray|.
-            const Real d = (z - vz) * ray_norms.at(iu, iv);
+            const Real d = (z - vz) * (norms_share_index ? ray_norms.data[pix] : ray_norms.at(iu, iv));
             if (d <= minus_rho) continue;
             // Eq. (2) from the table: full weight in front of -eps.
             int32_t w = full_weight;
