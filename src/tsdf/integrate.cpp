@@ -377,7 +377,8 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
   const uint32_t trust_q8 = job.trust_q8;
   const ImageView<const Real> ray_norms = job.ray_norms;
   const ImageView<const Rgb8> colour_px = job.frame.colour;
-  const LaneCamera<Real> cam = {job.fx, job.fy, job.cx, job.cy, job.width, job.height, float(job.width), float(job.height)};
+  const LaneCamera<Real> cam = {job.fx,    job.fy,  job.cx, job.cy, job.width, job.height, float(job.width), float(job.height),
+                                job.frame.depth.stride};
   const DepthLookup<Real> dl = {job.frame.depth.data, std::ptrdiff_t(job.frame.depth.stride), uint32_t(job.width - 1),
                                 uint32_t(job.height - 1), job.jump_raw, job.depth};
   const DepthScale<Real> scale = job.depth;
@@ -451,7 +452,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
             // Cheap exits on the nearest pixel before interpolating: no data; certainly occluded
             // (an interpolated depth is at most a depth jump beyond the nearest pixel's);
             // certainly free space (every pixel around is at least trunc beyond the voxel).
-            const std::ptrdiff_t pix = std::ptrdiff_t(iv) * dl.stride + iu;
+            const std::ptrdiff_t pix = rp.pix[lx];
             const uint16_t nearest = dl.px[pix];
             if (nearest == 0) continue;
             const Real z_near = scale.metres(nearest);
