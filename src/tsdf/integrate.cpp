@@ -324,21 +324,9 @@ std::size_t select_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr, con
   uint32_t* list = volume.brick_list();
   std::size_t count = 0;
   const Vec3f half = Vec3f::Constant(0.5f * kBrickSide * vs);
-  // Visit order: the grid axis closest to the viewing direction innermost, so that consecutive
-  // bricks of the list lie along the line of sight and project onto the same few pixels. The
-  // voxel loop then reads the depth, ray-norm and colour images of one small image region at a
-  // time, from the caches, instead of sweeping the whole frame (1-3 MB at 640x480, more than
-  // the L2 cache) once per brick slice. Bricks are independent, so the order changes no voxel.
-  const Vec3f view = T_world_cam.R.col(2);
-  int inner = 0;
-  for (int a = 1; a < 3; ++a)
-    if (std::fabs(view(a)) > std::fabs(view(inner))) inner = a;
-  const int outer = inner == 0 ? 1 : 0, middle = 3 - inner - outer;
-  int b[3];
-  for (b[outer] = 0; b[outer] < nb; ++b[outer])
-    for (b[middle] = 0; b[middle] < nb; ++b[middle])
-      for (b[inner] = 0; b[inner] < nb; ++b[inner]) {
-        const int bx = b[0], by = b[1], bz = b[2];
+  for (int bz = 0; bz < nb; ++bz)
+    for (int by = 0; by < nb; ++by)
+      for (int bx = 0; bx < nb; ++bx) {
         const Vec3f centre_w = volume.origin_m() + Vec3f(float(bx), float(by), float(bz)) * (kBrickSide * vs) + half;
         const Vec3f c = T_cam_world * centre_w;
         if (c.z() + radius <= 0.0f || c.z() - radius > far_z) continue;
