@@ -22,22 +22,6 @@ inline uint32_t max4(uint32_t a, uint32_t b, uint32_t c, uint32_t d) {
   return ab > cd ? ab : cd;
 }
 
-// floor(pu) of a lane with nearest pixel iu (pu within [-0.5, size - 0.5)) and pu - floor(pu).
-// Float: iu = floor(pu + 0.5) of the rounded sum, so floor(pu) is iu where pu >= iu and iu - 1
-// otherwise (also when the sum rounded up to iu): one comparison instead of floor_int's two
-// conversions; the same values. Fixed point: floor_int (a shift).
-inline int floor_of_near(float pu, int iu, float& frac) {
-  const float f = float(iu);
-  const bool below = pu < f;
-  frac = pu - (below ? f - 1.0f : f);  // f - 1 is exact: |iu| < 2^24
-  return below ? iu - 1 : iu;
-}
-inline int floor_of_near(Fixed pu, int, Fixed& frac) {
-  const int u0 = floor_int(pu);
-  frac = pu - Fixed::from_int(u0);
-  return u0;
-}
-
 // What depth_at reads, held in locals of the voxel loop (the voxel stores through uint8_t
 // pointers may alias the job, whose members would be reloaded after every store).
 template <class Real>
@@ -56,8 +40,7 @@ struct DepthLookup {
 template <class Real>
 inline bool depth_at(const DepthLookup<Real>& dl, Real pu, Real pv, int iu, int iv, std::ptrdiff_t pix,
                      uint32_t nearest, Real& z) {
-  Real fu, fv;
-  const int u0 = floor_of_near(pu, iu, fu), v0 = floor_of_near(pv, iv, fv);
+  const int u0 = floor_int(pu), v0 = floor_int(pv);
   if (uint32_t(u0) < dl.last_u && uint32_t(v0) < dl.last_v) {
     // (u0, v0) is the nearest pixel or its neighbour to the left / above.
     const uint16_t* r0 = dl.px + (pix - (iu - u0) - (iv - v0) * dl.stride);
@@ -71,6 +54,7 @@ inline bool depth_at(const DepthLookup<Real>& dl, Real pu, Real pv, int iu, int 
     if (lo_all != 0 && hi - lo_all <= dl.jump_raw) {
       const Real a = dl.scale.metres(uint16_t(q[0])), b = dl.scale.metres(uint16_t(q[1]));
       const Real c = dl.scale.metres(uint16_t(q[2])), e = dl.scale.metres(uint16_t(q[3]));
+      const Real fu = pu - real_from_int<Real>(u0), fv = pv - real_from_int<Real>(v0);
       const Real top = a + (b - a) * fu, bottom = c + (e - c) * fu;
       z = top + (bottom - top) * fv;
       return true;
@@ -370,9 +354,6 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
   const DepthLookup<Real> dl = {job.frame.depth.data, std::ptrdiff_t(job.frame.depth.stride), uint32_t(job.width - 1),
                                 uint32_t(job.height - 1), job.jump_raw, job.depth};
   const DepthScale<Real> scale = job.depth;
-  // The ray norms are read at the nearest pixel's depth index when both images share a stride
-  // (they always do in this code base: full-width views).
-  const bool norms_share_index = ray_norms.stride == job.frame.depth.stride;
 
   // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
   // span: from the brick's first to its last voxel centre along each axis.
@@ -467,7 +448,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
             if (!depth_at(dl, pu, pv, iu, iv, pix, nearest, z)) continue;
             if (z < min_z || z > max_z) continue;
             // Eq. (1): (measured range) - (voxel range) along the ray = (z - p.z) |ray|.
-            const Real d = (z - vz) * (norms_share_index ? ray_norms.data[pix] : ray_norms.at(iu, iv));
+            const Real d = (z - vz) * ray_norms.at(iu, iv);
             if (d <= minus_rho) continue;
             // Eq. (2) from the table: full weight in front of -eps.
             int32_t w = full_weight;
