@@ -22,6 +22,13 @@ inline uint32_t max4(uint32_t a, uint32_t b, uint32_t c, uint32_t d) {
   return ab > cd ? ab : cd;
 }
 
+// round_int without a branch on the sign (float): the sign of a voxel's distance flips across
+// the surface band from voxel to voxel, and round_int's two-way branch on it was mispredicted.
+// v + 0.5 truncated for v >= 0 and v - 0.5 truncated for v < 0 equal round_int's int(v + 0.5)
+// and -int(0.5 - v) (-0 takes +0.5 in both: int(-0.5) = 0). Fixed point: round_int.
+inline int32_t round_select(float v) { return int32_t(v + std::copysign(0.5f, v)); }
+inline int32_t round_select(Fixed v) { return round_int(v); }
+
 // What depth_at reads, held in locals of the voxel loop (the voxel stores through uint8_t
 // pointers may alias the job, whose members would be reloaded after every store).
 template <class Real>
@@ -462,7 +469,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               w = voxel_update::scale_by_trust(w, job.frame.trust.at(iu, iv), weight[idx]);
               if (w == 0) continue;
             }
-            int32_t q = d >= trunc ? kTsdfMax : round_int(d * inv_trunc * q_scale);
+            int32_t q = d >= trunc ? kTsdfMax : round_select(d * inv_trunc * q_scale);
             q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
 
             if (!colour_only) {
