@@ -22,27 +22,47 @@ inline uint32_t max4(uint32_t a, uint32_t b, uint32_t c, uint32_t d) {
   return ab > cd ? ab : cd;
 }
 
-// Measured z-depth at the projection (pu, pv) of a voxel; `nearest` is the raw depth of the
-// nearest pixel.
+// round_int without a branch on the sign (float): the sign of a voxel's distance flips across
+// the surface band from voxel to voxel, and GCC compiled round_int's select as a branch on it
+// (callgrind's branch simulation: 2.7 % fewer mispredicts in the voxel loop without it).
+// v + 0.5 truncated for v >= 0 and v - 0.5 truncated for v < 0 equal round_int's int(v + 0.5)
+// and -int(0.5 - v) (-0 takes +0.5 in both: int(-0.5) = 0). Fixed point: round_int.
+inline int32_t round_select(float v) { return int32_t(v + std::copysign(0.5f, v)); }
+inline int32_t round_select(Fixed v) { return round_int(v); }
+
+// What depth_at reads, held in locals of the voxel loop (the voxel stores through uint8_t
+// pointers may alias the job, whose members would be reloaded after every store).
+template <class Real>
+struct DepthLookup {
+  const uint16_t* px;         // depth pixels
+  std::ptrdiff_t stride;      // row stride in pixels
+  uint32_t last_u, last_v;    // width - 1, height - 1: the 2x2 pixels from (u0, v0) fit when u0 < last_u
+  uint32_t jump_raw;          // largest raw step interpolated across
+  DepthScale<Real> scale;
+};
+
+// Measured z-depth at the projection (pu, pv) of a voxel whose nearest pixel (iu, iv) lies at
+// index `pix` and holds the raw depth `nearest`.
 // Bilinear over the 4 surrounding pixels when all are valid and within a depth jump of each other;
 // the nearest pixel when some are missing (or at the border); false at a discontinuity or no data.
 template <class Real>
-bool depth_at(const IntegrationJob<Real>& job, Real pu, Real pv, uint32_t nearest, Real& z) {
-  const ImageView<const uint16_t>& img = job.frame.depth;
+inline bool depth_at(const DepthLookup<Real>& dl, Real pu, Real pv, int iu, int iv, std::ptrdiff_t pix,
+                     uint32_t nearest, Real& z) {
   const int u0 = floor_int(pu), v0 = floor_int(pv);
-  if (u0 >= 0 && v0 >= 0 && u0 + 1 < job.width && v0 + 1 < job.height) {
-    const uint16_t* r0 = img.row(v0) + u0;
-    const uint16_t* r1 = img.row(v0 + 1) + u0;
+  if (uint32_t(u0) < dl.last_u && uint32_t(v0) < dl.last_v) {
+    // (u0, v0) is the nearest pixel or its neighbour to the left / above.
+    const uint16_t* r0 = dl.px + (pix - (iu - u0) - (iv - v0) * dl.stride);
+    const uint16_t* r1 = r0 + dl.stride;
     const uint32_t q[4] = {r0[0], r0[1], r1[0], r1[1]};
     // Min / max without branches: 0 (no depth) is the smallest raw value, so min(q) != 0 says all
     // four are valid; only then is the bilinear test decided (the common case). The valid minimum
     // for the jump test below replaces missing pixels by the largest raw value.
     const uint32_t hi = max4(q[0], q[1], q[2], q[3]);
     const uint32_t lo_all = min4(q[0], q[1], q[2], q[3]);
-    if (lo_all != 0 && hi - lo_all <= job.jump_raw) {
+    if (lo_all != 0 && hi - lo_all <= dl.jump_raw) {
+      const Real a = dl.scale.metres(uint16_t(q[0])), b = dl.scale.metres(uint16_t(q[1]));
+      const Real c = dl.scale.metres(uint16_t(q[2])), e = dl.scale.metres(uint16_t(q[3]));
       const Real fu = pu - real_from_int<Real>(u0), fv = pv - real_from_int<Real>(v0);
-      const Real a = job.depth.metres(uint16_t(q[0])), b = job.depth.metres(uint16_t(q[1]));
-      const Real c = job.depth.metres(uint16_t(q[2])), e = job.depth.metres(uint16_t(q[3]));
       const Real top = a + (b - a) * fu, bottom = c + (e - c) * fu;
       z = top + (bottom - top) * fv;
       return true;
@@ -52,11 +72,11 @@ bool depth_at(const IntegrationJob<Real>& job, Real pu, Real pv, uint32_t neares
     const uint32_t lo = lo_all != 0 ? lo_all
                                     : min4(q[0] ? q[0] : 0xffffu, q[1] ? q[1] : 0xffffu, q[2] ? q[2] : 0xffffu,
                                            q[3] ? q[3] : 0xffffu);
-    if (hi > nearest + job.jump_raw || nearest > lo + job.jump_raw) return false;
+    if (hi > nearest + dl.jump_raw || nearest > lo + dl.jump_raw) return false;
   } else if (nearest == 0) {
     return false;
   }
-  z = job.depth.metres(uint16_t(nearest));
+  z = dl.scale.metres(uint16_t(nearest));
   return true;
 }
 
@@ -339,7 +359,11 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
   const uint32_t trust_q8 = job.trust_q8;
   const ImageView<const Real> ray_norms = job.ray_norms;
   const ImageView<const Rgb8> colour_px = job.frame.colour;
-  const LaneCamera<Real> cam = {job.fx, job.fy, job.cx, job.cy, job.width, job.height, float(job.width), float(job.height)};
+  const LaneCamera<Real> cam = {job.fx, job.fy, job.cx, job.cy, job.width, job.height, float(job.width), float(job.height),
+                                job.frame.depth.stride};
+  const DepthLookup<Real> dl = {job.frame.depth.data, std::ptrdiff_t(job.frame.depth.stride), uint32_t(job.width - 1),
+                                uint32_t(job.height - 1), job.jump_raw, job.depth};
+  const DepthScale<Real> scale = job.depth;
 
   // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
   // span: from the brick's first to its last voxel centre along each axis.
@@ -407,9 +431,10 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
             // Cheap exits on the nearest pixel before interpolating: no data; certainly occluded
             // (an interpolated depth is at most a depth jump beyond the nearest pixel's);
             // certainly free space (every pixel around is at least trunc beyond the voxel).
-            const uint16_t nearest = job.frame.depth.at(iu, iv);
+            const std::ptrdiff_t pix = rp.pix[lx];
+            const uint16_t nearest = dl.px[pix];
             if (nearest == 0) continue;
-            const Real z_near = job.depth.metres(nearest);
+            const Real z_near = scale.metres(nearest);
             if (z_near + jump - vz < minus_rho) continue;
             const std::size_t idx = row + std::size_t(lx);
             if (colour_only && (colour == nullptr || weight[idx] == 0)) continue;
@@ -417,7 +442,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
             // than trunc in front of its nearest pixel cannot pass the free-space test: the tile is
             // read only for the others (same decisions, monotone roundings).
             if (z_near - vz >= trunc &&
-                job.depth.metres(tiles[std::size_t(iv >> 3) * tiles_x + std::size_t(iu >> 3)].near_raw) - vz >= trunc &&
+                scale.metres(tiles[std::size_t(iv >> 3) * tiles_x + std::size_t(iu >> 3)].near_raw) - vz >= trunc &&
                 z_near <= max_z && z_near >= min_z) {
               if (colour_only) continue;
               const int32_t old_w = weight[idx];
@@ -430,7 +455,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               continue;
             }
             Real z;
-            if (!depth_at(job, pu, pv, nearest, z)) continue;
+            if (!depth_at(dl, pu, pv, iu, iv, pix, nearest, z)) continue;
             if (z < min_z || z > max_z) continue;
             // Eq. (1): (measured range) - (voxel range) along the ray = (z - p.z) |ray|.
             const Real d = (z - vz) * ray_norms.at(iu, iv);
@@ -447,7 +472,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               w = voxel_update::scale_by_trust(w, job.frame.trust.at(iu, iv), weight[idx], job.sub_unit_fill);
               if (w == 0) continue;
             }
-            int32_t q = d >= trunc ? kTsdfMax : round_int(d * inv_trunc * q_scale);
+            int32_t q = d >= trunc ? kTsdfMax : round_select(d * inv_trunc * q_scale);
             q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
 
             if (!colour_only) {
