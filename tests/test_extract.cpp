@@ -753,19 +753,28 @@ TEST(ExtractMesh, AllCasesClosed) {
   }
 }
 
-// Fusion round 4: the support rule. A plane filled with weight 8, except a patch of columns whose
-// voxels hold 3 units (e.g. three ToF samples); with min_weight 4 the patch's crossings go and
-// every other crossing stays, identical; min_weight 0 and 1 are the plain extraction.
-TEST(ExtractPoints, MinWeightSupportRule) {
-  const float z0 = 0.0123f;
-  fill(g_volume, [&](const Vec3f& p) { return p.z() - z0; }, seen_like_integration);
-  auto in_patch = [](int x, int y) { return x >= 10 && x < 20 && y >= 30 && y < 35; };
+// The plane of the support-rule tests: z = kPatchPlaneZ, every observed voxel at weight 8 except
+// the columns of a 10 x 5 patch (in_patch), which hold 3 units (e.g. three ToF samples).
+namespace {
+constexpr float kPatchPlaneZ = 0.0123f;
+bool in_patch(int x, int y) { return x >= 10 && x < 20 && y >= 30 && y < 35; }
+void fill_plane_with_weak_patch() {
+  fill(g_volume, [&](const Vec3f& p) { return p.z() - kPatchPlaneZ; }, seen_like_integration);
   for (int z = 0; z < kDim; ++z)
     for (int y = 0; y < kDim; ++y)
       for (int x = 0; x < kDim; ++x) {
         const std::size_t k = g_volume.index(x, y, z);
         if (g_weight[k] != 0) g_weight[k] = in_patch(x, y) ? 3 : 8;
       }
+}
+}  // namespace
+
+// Fusion round 4: the support rule. A plane filled with weight 8, except a patch of columns whose
+// voxels hold 3 units (e.g. three ToF samples); with min_weight 4 the patch's crossings go and
+// every other crossing stays, identical; min_weight 0 and 1 are the plain extraction.
+TEST(ExtractPoints, MinWeightSupportRule) {
+  const float z0 = kPatchPlaneZ;
+  fill_plane_with_weak_patch();
   std::size_t n_all = 0, n0 = 0, n1 = 0, n4 = 0, n8 = 0, n9 = 0;
   CHECK(extract_points(g_volume, g_points, kMaxPoints, n_all) == Status::kOk);
   CHECK(extract_points(g_volume, g_points2, kMaxPoints, n0, 0) == Status::kOk);
@@ -791,15 +800,7 @@ TEST(ExtractPoints, MinWeightSupportRule) {
 // the patch's 10 x 5 columns and the cells reaching into them from -x and -y), the mesh's vertices
 // are exactly the points extract_points keeps under the same rule, and the rest is the plain mesh.
 TEST(ExtractMesh, MinWeightSupportRule) {
-  const float z0 = 0.0123f;
-  fill(g_volume, [&](const Vec3f& p) { return p.z() - z0; }, seen_like_integration);
-  auto in_patch = [](int x, int y) { return x >= 10 && x < 20 && y >= 30 && y < 35; };
-  for (int z = 0; z < kDim; ++z)
-    for (int y = 0; y < kDim; ++y)
-      for (int x = 0; x < kDim; ++x) {
-        const std::size_t k = g_volume.index(x, y, z);
-        if (g_weight[k] != 0) g_weight[k] = in_patch(x, y) ? 3 : 8;
-      }
+  fill_plane_with_weak_patch();
   VectorSink plain, m0, m1, m4, m8, m9;
   CHECK(mesh(plain) == Status::kOk);
   CHECK(mesh(m0, 0) == Status::kOk);

@@ -135,6 +135,23 @@ def visible_samples(rig, mesh, spacing=0.0005):
     return pts[visible], len(pts)
 
 
+def distance_scene(mesh):
+    """Open3D closest-point scene of the true meshes (compute_distance works with Debian's Embree)."""
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(mesh))
+    return scene
+
+
+def truth(rig):
+    """The true meshes, their distance scene and the visible true-surface samples (as a cloud)."""
+    mesh = true_mesh(rig)
+    scene = distance_scene(mesh)
+    vis, total = visible_samples(rig, mesh)
+    vis_pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(vis))
+    print("true surface: %d samples (0.5 mm), %d visible from the rig's cameras" % (total, len(vis)))
+    return mesh, scene, vis, vis_pc
+
+
 def run(cmd):
     t0 = time.process_time()
     r = subprocess.run(cmd, capture_output=True, text=True)
@@ -223,12 +240,7 @@ def main():
             print("%s: laser pose %s mm from the recorded (exact) pose" % (name, m.group(1)))
 
     # 3. truth
-    mesh = true_mesh(a.rig)
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(mesh))
-    vis, total = visible_samples(a.rig, mesh)
-    vis_pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(vis))
-    print("true surface: %d samples (0.5 mm), %d visible from the rig's cameras" % (total, len(vis)))
+    mesh, scene, vis, vis_pc = truth(a.rig)
 
     rows = []
     xtion_pc = o3d.io.read_point_cloud(clouds["xtion"][0])

@@ -58,8 +58,7 @@ def main():
     a = ap.parse_args()
     mesh = fb.true_mesh(a.rig)
     n_bin = len(o3d.io.read_triangle_mesh(os.path.join(a.rig, "models", "bin.ply")).triangles)
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(mesh))
+    scene = fb.distance_scene(mesh)
 
     def err(p):
         return scene.compute_distance(o3d.core.Tensor(p.astype(np.float32))).numpy()

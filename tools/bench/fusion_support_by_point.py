@@ -19,7 +19,7 @@ import numpy as np
 import open3d as o3d
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from fusion_bench import true_mesh  # noqa: E402
+from fusion_bench import distance_scene, true_mesh  # noqa: E402
 
 
 def read_ply_support(path):
@@ -56,8 +56,7 @@ def main():
     ap.add_argument("--rig", default=os.path.join(repo, "..", "shared", "data", "bin_rig_a"))
     a = ap.parse_args()
     mesh = true_mesh(a.rig)
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(mesh))
+    scene = distance_scene(mesh)
     p, s = read_ply_support(a.cloud)
     d = scene.compute_distance(o3d.core.Tensor(p)).numpy() * 1e3
     far = np.zeros(len(p), dtype=bool)

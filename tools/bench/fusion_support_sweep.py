@@ -24,7 +24,7 @@ import numpy as np
 import open3d as o3d
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from fusion_bench import true_mesh, visible_samples  # noqa: E402
+from fusion_bench import truth  # noqa: E402
 
 
 def fuse(ef, rig, sensors, opts, origin, path):
@@ -49,12 +49,7 @@ def main():
     ap.add_argument("--workdir", default=os.path.join(repo, "build", "host", "fusion_sweep"))
     a = ap.parse_args()
     os.makedirs(a.workdir, exist_ok=True)
-    mesh = true_mesh(a.rig)
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(mesh))
-    vis, total = visible_samples(a.rig, mesh)
-    vis_pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(vis))
-    print("true surface: %d samples (0.5 mm), %d visible from the rig's cameras" % (total, len(vis)))
+    mesh, scene, vis, vis_pc = truth(a.rig)
     extra = a.extra.split()
     sensors = a.sensors.split(";")
     rules = [("min-support %s" % w, ["--min-support", w]) for w in a.support.split(",")]
