@@ -24,7 +24,7 @@ namespace {
 const char* kUsage =
     "usage: edgefuse calibrate RIGSET --from A --to B [--frames N] [--guess tx,ty,tz,rx,ry,rz] [--out FILE] [--store DIR]\n"
     "                          [--poses tracked|truth] [--mode pair|maps] [--voxel M] [--trunc M] [--volume N]\n"
-    "  Fills the space with sensor A (its first N frames, default 10; tracked by ICP from its first\n"
+    "  Fills the space with sensor A (its first N frames, default all of them; tracked by ICP from its first\n"
     "  ground-truth pose, or with --poses truth at every ground-truth pose), registers B's\n"
     "  frames of the same instants to it and prints T_A_B (pose of B in A's frame) with its\n"
     "  uncertainty. --guess: the mounting to start from (metres, degrees as a rotation vector;\n"
@@ -169,7 +169,7 @@ int cmd_calibrate(int argc, char** argv) {
   settings.trunc_m = defaults.trunc_m;
   settings.max_weight = defaults.max_weight;
   settings.dim = board.volume_dim;
-  int frames = 10;
+  int frames = 0;  // 0: every frame of A (set once the sequence is open)
   Pose guess;
   if (!args.get_float("voxel", 1e-4f, 1.0f, settings.voxel_m, err) ||
       !args.get_float("trunc", 1e-4f, 10.0f, settings.trunc_m, err) ||
@@ -196,6 +196,9 @@ int cmd_calibrate(int argc, char** argv) {
       !io::open_depth_sequence(folder, args.get("to"), b.seq, err))
     return fail(err);
   if (a.seq.frames.empty() || b.seq.frames.empty()) return fail("a sensor has no frames");
+  // All the data by default: the mounting's scatter falls with the frames averaged (bin_rig_a:
+  // 1.26 mm / 0.17 deg from 10 frames, 0.33 mm / 0.06 deg from all 20).
+  if (frames == 0) frames = int(a.seq.frames.size());
   if (board.sensors_max < 3) return fail("board " + std::string(board.name) + " has fewer than 3 sensor slots");
 
   const std::string mode = args.get("mode", "pair");
