@@ -111,13 +111,24 @@ TEST(Fusion5, RuleValues) {
   LONGS_EQUAL(kWeightUnitsPerSample, DepthFrame{}.sub_unit_fill_units);  // default: as before round 5b
 }
 
+namespace {
+// The frame's median noise comes with its trust map (build_trust_map's optional output).
+float median_sigma_of(const NoiseModel& model, const uint16_t* d, int n) {
+  uint8_t trust[8];
+  float med = -1.0f;
+  CHECK(build_trust_map(model, kSigmaRef, ImageView<const uint16_t>(d, n, 1), 5000.0f, {}, ImageView<uint8_t>(trust, n, 1),
+                        0.0f, &med) == Status::kOk);
+  return med;
+}
+}  // namespace
+
 TEST(Fusion5, MedianSigmaOfAFrame) {
   uint16_t d[6] = {0, 3500, 3500, 3500, 5000, 5000};  // 0.7 m x3, 1.0 m x2 (depth scale 5000)
   const NoiseModel sl = NoiseModel::structured_light();
-  const float med = median_sigma_m(sl, ImageView<const uint16_t>(d, 6, 1), 5000.0f, {});
+  const float med = median_sigma_of(sl, d, 6);
   DOUBLES_EQUAL(sl.sigma_m(0.7f), med, 0.000125);
   uint16_t none[2] = {0, 0};
-  DOUBLES_EQUAL(0.0, median_sigma_m(sl, ImageView<const uint16_t>(none, 2, 1), 5000.0f, {}), 0.0);
+  DOUBLES_EQUAL(0.0, median_sigma_of(sl, none, 2), 0.0);
 }
 
 TEST(Fusion5, SubUnitSamplesNeverReachTheEvidenceRule) {

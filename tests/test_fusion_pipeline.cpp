@@ -191,7 +191,7 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   // frame's median noise sets its depth-jump limit, and a set mixing the ToF's sub-unit samples
   // with the xtion's extracts with the evidence rule (support 9). fusion5b: such a set fills sub-unit
   // samples only to 3 units, so its support rule is 4 again (fusion_rules.hpp rule 3).
-  CHECK_TRUE(p->camera_stream(0).sigma_frames >= 2 && p->camera_stream(1).sigma_frames >= 2);
+  CHECK_TRUE(p->camera_stream(0).sigma.frames >= 2 && p->camera_stream(1).sigma.frames >= 2);
   const float sigma_ref_m = 0.5f * c.voxel_m;  // the pipeline's trust reference
   CHECK_FALSE(sub_unit_sensor(p->camera_stream(0).median_sigma(), sigma_ref_m));
   CHECK_TRUE(sub_unit_sensor(p->camera_stream(1).median_sigma(), sigma_ref_m));

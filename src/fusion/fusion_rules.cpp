@@ -4,30 +4,6 @@
 
 namespace edgefuse {
 
-float median_sigma_m(const NoiseModel& noise, ImageView<const uint16_t> depth, float depth_scale,
-                     ImageView<const uint16_t> amplitude) {
-  // Histogram of 0.25 mm bins up to 64 mm (the ToF model caps at 20 mm): a median without sorting.
-  constexpr int kBins = 256;
-  constexpr float kBinM = 0.00025f;
-  uint32_t hist[kBins] = {};
-  uint32_t n = 0;
-  for (int v = 0; v < depth.height; ++v)
-    for (int u = 0; u < depth.width; ++u) {
-      const uint16_t raw = depth.at(u, v);
-      if (raw == 0) continue;
-      const float a = amplitude.empty() ? 0.0f : float(amplitude.at(u, v));
-      const int b = int(noise.sigma_m(float(raw) / depth_scale, a) / kBinM);
-      ++hist[b < 0 ? 0 : (b >= kBins ? kBins - 1 : b)];
-      ++n;
-    }
-  uint32_t seen = 0;
-  for (int b = 0; b < kBins; ++b) {
-    seen += hist[b];
-    if (2 * seen >= n && n > 0) return (float(b) + 0.5f) * kBinM;
-  }
-  return 0.0f;
-}
-
 float noise_jump_m(float median_sigma_m, float jump_sigmas) {
   if (!(jump_sigmas > 0.0f) || !(median_sigma_m > 0.0f)) return 0.0f;
   const float j = jump_sigmas * median_sigma_m;

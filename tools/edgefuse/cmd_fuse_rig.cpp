@@ -256,8 +256,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   const double fuse_ms = ms_since(t_start);
 
   if (support_by_set) {
-    std::vector<float> sigma;
-    for (const PinholeSlot& c : cams) sigma.push_back(c.median_sigma());
+    const std::vector<float> sigma = median_sigmas(cams);
     min_support = default_support_weight(sigma.data(), int(sigma.size()), sigma_ref, sub_unit_fill);
   }
   if (use_trust)

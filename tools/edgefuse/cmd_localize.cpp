@@ -283,8 +283,7 @@ int cmd_localize(int argc, char** argv) {
     t_start_wall = std::chrono::steady_clock::now();
     const std::size_t cap = std::min<std::size_t>(board.points_max, board.scene_points_max);
     if (min_support < 0 && rules) {
-      std::vector<float> sigma;
-      for (const PinholeSlot& c : rs.cams) sigma.push_back(c.median_sigma());
+      const std::vector<float> sigma = median_sigmas(rs.cams);
       min_support = default_support_weight(sigma.data(), int(sigma.size()), 0.5f * fs.voxel_m, sub_unit_fill);
     }
     if (min_support > 0) std::printf("support rule: both voxels of a crossing hold >= %d weight units\n", min_support);

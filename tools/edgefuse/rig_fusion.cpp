@@ -76,7 +76,10 @@ bool PinholeSlot::stage(std::size_t i, bool filter, bool with_colour, float sigm
     frame.colour = colour;
   }
   if (sigma_ref_m > 0.0f) {
-    if (build_trust_map(noise, sigma_ref_m, depth, intr.depth_scale, amp, trust, sigma_max_m) != Status::kOk) {
+    // The frame's median noise (of the pixels the gate keeps): the jump rule and the set's rules.
+    float sigma_m = 0.0f;
+    if (build_trust_map(noise, sigma_ref_m, depth, intr.depth_scale, amp, trust, sigma_max_m, &sigma_m) !=
+        Status::kOk) {
       err = f.depth_path + ": trust map failed";
       return false;
     }
@@ -84,22 +87,25 @@ bool PinholeSlot::stage(std::size_t i, bool filter, bool with_colour, float sigm
     for (int v = 0; v < intr.height; ++v)
       for (int u = 0; u < intr.width; ++u) {
         if (depth.at(u, v) == 0) continue;
-        ++staged_pixels;
+        ++counts.staged_pixels;
         if (trust.at(u, v) != 0) continue;
-        ++gated_pixels;
+        ++counts.gated_pixels;
         depth.at(u, v) = 0;  // a gated pixel carves no free space either
       }
-    // The frame's median noise: the jump rule, and the default support rule of the set.
-    const float sigma_m = median_sigma_m(noise, depth, intr.depth_scale, amp);
-    sigma_sum_m += sigma_m;
-    ++sigma_frames;
+    counts.sigma.add(sigma_m);
     if (jump_sigmas > 0.0f) {
       frame.jump_m = noise_jump_m(sigma_m, jump_sigmas);
-      jump_m_sum += frame.jump_m;
-      ++jump_frames;
+      counts.jump_m_sum += frame.jump_m;
+      ++counts.jump_frames;
     }
   }
   return true;
+}
+
+std::vector<float> median_sigmas(const std::vector<PinholeSlot>& cams) {
+  std::vector<float> sigma;
+  for (const PinholeSlot& c : cams) sigma.push_back(c.median_sigma());
+  return sigma;
 }
 
 int frame_near(const io::DepthSequence& seq, double stamp_s) {
@@ -370,19 +376,12 @@ bool plan_sub_unit_fill(RigSensors& rs, bool filter, float sigma_ref_m, ImageVie
       sigma.push_back(0.0f);
       continue;
     }
-    // The report's counters are left as they were (the slot's buffers are restaged by the push).
-    const std::size_t staged = cam.staged_pixels, gated = cam.gated_pixels, jumps = cam.jump_frames;
-    const std::size_t sigmas = cam.sigma_frames;
-    const double jump_sum = cam.jump_m_sum, sigma_sum = cam.sigma_sum_m;
+    // The counts are left as they were (the slot's buffers are restaged by the push).
+    const PinholeSlot::StageCounts before = cam.counts;
     DepthFrame f;
     if (!cam.stage(0, filter, false, sigma_ref_m, filter_scratch, f, err)) return false;
     sigma.push_back(cam.median_sigma());
-    cam.staged_pixels = staged;
-    cam.gated_pixels = gated;
-    cam.jump_m_sum = jump_sum;
-    cam.jump_frames = jumps;
-    cam.sigma_sum_m = sigma_sum;
-    cam.sigma_frames = sigmas;
+    cam.counts = before;
   }
   fill = default_sub_unit_fill(sigma.data(), int(sigma.size()), sigma_ref_m);
   for (PinholeSlot& cam : rs.cams) cam.sub_unit_fill_units = fill;
@@ -423,13 +422,13 @@ bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const st
     }
     if (verbose) {
       char gate[96] = "";
-      if (cam.sigma_max_m > 0.0f && cam.staged_pixels > 0)
+      if (cam.sigma_max_m > 0.0f && cam.counts.staged_pixels > 0)
         std::snprintf(gate, sizeof(gate), ", noise gate %.1f mm dropped %.1f %% of its pixels", 1e3f * cam.sigma_max_m,
-                      100.0 * double(cam.gated_pixels) / double(cam.staged_pixels));
+                      100.0 * double(cam.counts.gated_pixels) / double(cam.counts.staged_pixels));
       char jump[96] = "";
-      if (cam.jump_frames > 0)
+      if (cam.counts.jump_frames > 0)
         std::snprintf(jump, sizeof(jump), ", depth jump %.1f mm", 1e3 * std::max(double(core.volume.params().trunc_m),
-                                                                                   cam.jump_m_sum / double(cam.jump_frames)));
+                                                                                   cam.counts.jump_m_sum / double(cam.counts.jump_frames)));
       std::printf("%s: %zu frames pushed (%s%s%s%s%s)\n", cam.seq.sensor_name.c_str(), pushed,
                   cam.tof ? "ToF" : "structured light", filter ? ", pre-filtered" : "", colour ? ", colour" : "", gate,
                   jump);

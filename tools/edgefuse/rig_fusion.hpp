@@ -44,22 +44,28 @@ struct PinholeSlot {
   //! Noise gate of the trust map (build_trust_map's sigma_max_m; 0: none): pixels noisier than this
   //! are dropped from the staged depth (no surface, no free space).
   float sigma_max_m = 0.0f;
-  std::size_t staged_pixels = 0;  //!< pixels with depth staged with a trust map (after the filters)
-  std::size_t gated_pixels = 0;   //!< of those, dropped by the noise gate
   //! Noise-aware depth discontinuity (with a trust map only; 0: off, the truncation as always):
   //! a staged frame's DepthFrame::jump_m = jump_sigmas x the median modelled noise of its pixels.
   float jump_sigmas = 0.0f;
   //! DepthFrame::sub_unit_fill_units of its staged frames (8: one full sample; fusion_rules.hpp).
   int sub_unit_fill_units = kWeightUnitsPerSample;
-  double jump_m_sum = 0.0;        //!< sum of the jump_m set (for the report)
-  std::size_t jump_frames = 0;    //!< frames it was set for
-  double sigma_sum_m = 0.0;       //!< sum of the staged frames' median modelled noise (with a trust map)
-  std::size_t sigma_frames = 0;   //!< frames summed
+  //! What staging counted (frames staged with a trust map): the push's report and the set's rules.
+  struct StageCounts {
+    std::size_t staged_pixels = 0;  //!< pixels with depth (after the filters)
+    std::size_t gated_pixels = 0;   //!< of those, dropped by the noise gate
+    double jump_m_sum = 0.0;        //!< sum of the jump_m set
+    std::size_t jump_frames = 0;    //!< frames it was set for
+    NoiseMean sigma;                //!< the frames' median modelled noise
+  } counts;
   //! Mean of the staged frames' median noise (0 before any frame with a trust map).
-  float median_sigma() const { return sigma_frames > 0 ? float(sigma_sum_m / double(sigma_frames)) : 0.0f; }
+  float median_sigma() const { return counts.sigma.mean_m(); }
 };
 
-// The noise rules' constants and median_sigma_m: edgefuse/fusion/fusion_rules.hpp (shared with edgefused).
+// The noise rules: edgefuse/fusion/fusion_rules.hpp (shared with edgefused).
+
+//! Each camera's median_sigma(), in order (the fusion rules' input).
+//! \param cams the set's cameras
+std::vector<float> median_sigmas(const std::vector<PinholeSlot>& cams);
 
 //! Index of the frame of `seq` whose stamp is nearest to stamp_s (within 0.02 s), or -1.
 int frame_near(const io::DepthSequence& seq, double stamp_s);

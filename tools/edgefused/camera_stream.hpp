@@ -18,6 +18,7 @@
 
 #include "core_setup.hpp"
 #include "edgefuse/filters/depth_filter_chain.hpp"
+#include "edgefuse/fusion/fusion_rules.hpp"
 #include "edgefuse/sensor/noise_model.hpp"
 #include "edgefuse/tracking/pyramid.hpp"
 #include "hal/acquisition/acquisition_counters.hpp"
@@ -42,10 +43,9 @@ struct CameraStream {
   uint32_t skipped = 0;                   //!< held frames replaced before they were processed
   uint32_t integrated = 0;                //!< frames integrated into the map
   uint32_t unpaired = 0;                  //!< no reference pose within the pairing window
-  double sigma_sum_m = 0.0;               //!< sum of the fused frames' median modelled noise (fusion rules)
-  uint32_t sigma_frames = 0;              //!< frames summed
+  NoiseMean sigma;                        //!< the fused frames' median modelled noise (fusion rules)
   //! Mean median noise of the fused frames (0 before any).
-  float median_sigma() const { return sigma_frames > 0 ? float(sigma_sum_m / double(sigma_frames)) : 0.0f; }
+  float median_sigma() const { return sigma.mean_m(); }
 
   // Slot of the board's per-sensor buffers.
   ImageView<real_t> ray_norms;

@@ -478,13 +478,14 @@ void FusionPipeline::process_reference(uint64_t now_us) {
   f.depth = ImageView<const uint16_t>(ref.filtered.data, frame.width, frame.height);
   if (frame.has_colour) f.colour = frame.colour_view();
   if (use_trust_) {
+    float sigma_m = 0.0f;
     if (build_trust_map(ref.noise, 0.5f * fuse_.voxel_m, f.depth, intr_.depth_scale, frame.amplitude_view(),
-                        ref.trust) != Status::kOk) {
+                        ref.trust, 0.0f, &sigma_m) != Status::kOk) {
       ++pipeline_drops_;
       return;
     }
     f.trust = ref.trust;
-    apply_noise_jump(ref, f, frame);
+    apply_noise_rules(ref, f, sigma_m);
   }
 
   Pose T;
@@ -609,13 +610,14 @@ void FusionPipeline::process_other(CameraStream& c) {
   }
   DepthFrame f;
   f.depth = ImageView<const uint16_t>(c.filtered.data, frame.width, frame.height);
-  if (build_trust_map(c.noise, 0.5f * fuse_.voxel_m, f.depth, c.intr.depth_scale, frame.amplitude_view(), c.trust) !=
-      Status::kOk) {
+  float sigma_m = 0.0f;
+  if (build_trust_map(c.noise, 0.5f * fuse_.voxel_m, f.depth, c.intr.depth_scale, frame.amplitude_view(), c.trust, 0.0f,
+                      &sigma_m) != Status::kOk) {
     ++pipeline_drops_;
     return;
   }
   f.trust = c.trust;
-  apply_noise_jump(c, f, frame);
+  apply_noise_rules(c, f, sigma_m);
   const Pose T = ref_pose_ * c.T_ref_cam;
   if (integrate_parallel<real_t>(pool_, core_.volume, c.intr, c.ray_norms, f, T, c.scratch) != Status::kOk) {
     ++pipeline_drops_;
@@ -628,12 +630,10 @@ void FusionPipeline::process_other(CameraStream& c) {
 }
 
 // The noise rules of `edgefuse fuse --sensors` (fusion_rules.hpp), shared code: the depth-jump
-// limit follows the frame's median modelled noise; the median is also kept per camera for the
-// support rule of extraction (map_support_weight()).
-void FusionPipeline::apply_noise_jump(CameraStream& c, DepthFrame& f, const hal::DepthFrame& frame) {
-  const float sigma_m = median_sigma_m(c.noise, f.depth, c.intr.depth_scale, frame.amplitude_view());
-  c.sigma_sum_m += sigma_m;
-  ++c.sigma_frames;
+// limit follows the frame's median modelled noise (from its trust map); the median is also kept per
+// camera for the set's sub-unit fill and the support rule of extraction (map_support_weight()).
+void FusionPipeline::apply_noise_rules(CameraStream& c, DepthFrame& f, float sigma_m) {
+  c.sigma.add(sigma_m);
   f.jump_m = noise_jump_m(sigma_m, kJumpSigmas);
   // Round 5b (fusion_rules.hpp rule 3): in a mixed set sub-unit samples fill a voxel only up to 3
   // units. Decided from the medians so far, this frame's included, so a sub-unit camera's frames all
@@ -641,18 +641,20 @@ void FusionPipeline::apply_noise_jump(CameraStream& c, DepthFrame& f, const hal:
   f.sub_unit_fill_units = map_sub_unit_fill();
 }
 
+void FusionPipeline::fused_median_sigmas(float (&sigma)[kCamerasMax]) const {
+  for (int k = 0; k < kCamerasMax; ++k) sigma[k] = k < fuse_count_ ? cams_[order_[k]].median_sigma() : 0.0f;
+}
+
 int FusionPipeline::map_sub_unit_fill() const {
-  float sigma[kCamerasMax] = {};
-  for (int k = 0; k < fuse_count_; ++k) sigma[k] = cams_[order_[k]].median_sigma();
+  float sigma[kCamerasMax];
+  fused_median_sigmas(sigma);
   return default_sub_unit_fill(sigma, fuse_count_, 0.5f * fuse_.voxel_m);
 }
 
 uint8_t FusionPipeline::map_support_weight() const {
   if (!use_trust_) return 0;  // one camera, equal weights: every observed crossing, as before
-  float sigma[kCamerasMax] = {};
-  for (int k = 0; k < fuse_count_; ++k) {
-    sigma[k] = cams_[order_[k]].median_sigma();
-  }
+  float sigma[kCamerasMax];
+  fused_median_sigmas(sigma);
   return default_support_weight(sigma, fuse_count_, 0.5f * fuse_.voxel_m, map_sub_unit_fill());
 }
 

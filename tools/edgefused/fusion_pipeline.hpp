@@ -128,9 +128,12 @@ class FusionPipeline final : public runtime::Pipeline {
   static constexpr int kCamerasMax = 3;
   void process_reference(uint64_t now_us);
   void process_other(CameraStream& c);
-  //! fusion5: sets f.jump_m from the frame's median noise (fusion_rules.hpp) and records the median.
-  //! \param c the camera  \param f its staged frame  \param frame the held HAL frame (amplitude)
-  void apply_noise_jump(CameraStream& c, DepthFrame& f, const hal::DepthFrame& frame);
+  //! fusion5: records the frame's median noise and sets f.jump_m and f.sub_unit_fill_units from it
+  //! (fusion_rules.hpp).
+  //! \param c the camera  \param f its staged frame  \param sigma_m the frame's median noise (build_trust_map's)
+  void apply_noise_rules(CameraStream& c, DepthFrame& f, float sigma_m);
+  //! The fused cameras' median noise in fusion order (0 past fuse_count_).
+  void fused_median_sigmas(float (&sigma)[kCamerasMax]) const;
   void process_profile(const hal::LineProfile& p);
   void drain_profiles();
   void update_mounts();

@@ -30,7 +30,6 @@
 
 #include <cstdint>
 
-#include "edgefuse/core/image.hpp"
 #include "edgefuse/sensor/noise_model.hpp"
 #include "edgefuse/tsdf/volume.hpp"
 
@@ -44,16 +43,25 @@ inline constexpr uint8_t kMinSupportWeight = 4;
 //! Evidence rule of a mixed set: more than a voxel of sub-unit samples alone can hold.
 inline constexpr uint8_t kEvidenceSupportWeight = kWeightUnitsPerSample + 1;
 
-//! Median modelled noise of a depth image's valid pixels (0.25 mm resolution, up to 64 mm; 0 without
-//! valid pixels). No heap (a histogram on the stack).
-//! \param noise the sensor's noise model  \param depth raw depth  \param depth_scale raw per metre
-//! \param amplitude ToF amplitude of the same size, or empty
-float median_sigma_m(const NoiseModel& noise, ImageView<const uint16_t> depth, float depth_scale,
-                     ImageView<const uint16_t> amplitude);
+// A frame's median modelled noise comes out of its trust map: build_trust_map(..., &median_sigma_m)
+// (sensor/noise_model.hpp), the same per-pixel noise in the same pass.
+
+//! Mean of a camera's frames' median noise: the set's rules (sub-unit fill, support) follow it.
+struct NoiseMean {
+  double sum_m = 0.0;   //!< sum of the frames' median noise
+  uint32_t frames = 0;  //!< frames summed
+  //! \param median_sigma_m one frame's median noise
+  void add(float median_sigma_m) {
+    sum_m += median_sigma_m;
+    ++frames;
+  }
+  //! The mean (0 before any frame).
+  float mean_m() const { return frames > 0 ? float(sum_m / double(frames)) : 0.0f; }
+};
 
 //! DepthFrame::jump_m of a frame with median noise median_sigma_m: jump_sigmas x it, at most 1 m
 //! (integration's bound); 0 (the truncation) when jump_sigmas is 0.
-//! \param median_sigma_m the frame's median noise (median_sigma_m())  \param jump_sigmas the rule's K
+//! \param median_sigma_m the frame's median noise (build_trust_map's)  \param jump_sigmas the rule's K
 float noise_jump_m(float median_sigma_m, float jump_sigmas);
 
 //! Whether a sensor of this median noise gives sub-unit samples (stored as one unit, see above).

@@ -65,7 +65,12 @@ struct NoiseModel {
   //! \param cap largest trust returned (1: a pinhole trust map in 1/255; a line scanner may exceed 1,
   //!        see kProfileTrustMax in integrate_profile.hpp)
   float trust(float sigma_ref_m, float z_m, float amplitude = 0.0f, float cap = 1.0f) const {
-    const float r = sigma_ref_m / sigma_m(z_m, amplitude);
+    return trust_of_sigma(sigma_ref_m, sigma_m(z_m, amplitude), cap);
+  }
+  //! trust() of a noise already evaluated (sigma_m > 0).
+  //! \param sigma_ref_m noise that earns full weight  \param sigma_m the measurement's noise  \param cap as trust()
+  static float trust_of_sigma(float sigma_ref_m, float sigma_m, float cap = 1.0f) {
+    const float r = sigma_ref_m / sigma_m;
     const float t = r * r;
     return t < cap ? t : cap;
   }
@@ -81,7 +86,12 @@ struct NoiseModel {
 //! \param sigma_max_m noise gate (0: none): a pixel noisier than this gets trust 0 (no sample).
 //!        A truncated SDF cannot hold a measurement whose noise is comparable to its truncation: the
 //!        clipping at +-trunc biases its average and its noise leaves zero crossings in the band.
+//! \param median_sigma_m optional output: the median modelled noise of the pixels that get a sample
+//!        (trust > 0), in 0.25 mm bins up to 64 mm (the bin's centre; 0 without any such pixel). The
+//!        fusion rules' depth-jump limit and sensor classes (fusion_rules.hpp) follow it; it comes
+//!        from the same per-pixel noise as the trust, with a histogram on the stack (no heap).
 Status build_trust_map(const NoiseModel& model, float sigma_ref_m, ImageView<const uint16_t> depth, float depth_scale,
-                       ImageView<const uint16_t> amplitude, ImageView<uint8_t> trust, float sigma_max_m = 0.0f);
+                       ImageView<const uint16_t> amplitude, ImageView<uint8_t> trust, float sigma_max_m = 0.0f,
+                       float* median_sigma_m = nullptr);
 
 }  // namespace edgefuse
