@@ -34,7 +34,6 @@ struct RaycastContext {
   const PinholeIntrinsics* intr;
   const Pose* pose;
   const RaycastMaps* maps;
-  const FrameScratch* scratch;
   std::atomic<int> next{0};
 };
 
@@ -45,7 +44,7 @@ void raycast_worker(void* p, int, int) {
     const int begin = c->next.fetch_add(kRowsPerChunk);
     if (begin >= c->intr->height) return;
     const int end = begin + kRowsPerChunk < c->intr->height ? begin + kRowsPerChunk : c->intr->height;
-    raycast_rows<Real>(*c->volume, *c->intr, *c->pose, *c->maps, *c->scratch, begin, end);
+    raycast_rows<Real>(*c->volume, *c->intr, *c->pose, *c->maps, begin, end);
   }
 }
 
@@ -73,7 +72,6 @@ Status raycast_parallel(WorkerPool& pool, const TsdfVolume& volume, const Pinhol
   const Status s = prepare_raycast(volume, intr, T_world_cam, maps, scratch);
   if (s != Status::kOk) return s;
   RaycastContext<Real> c;
-  c.scratch = &scratch;
   c.volume = &volume;
   c.intr = &intr;
   c.pose = &T_world_cam;

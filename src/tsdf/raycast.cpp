@@ -254,9 +254,8 @@ enum class MarchResult { kGoing, kHit, kMiss };
 template <class Real>
 class RayMarcher {
  public:
-  RayMarcher(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam, const RaycastMaps& maps,
-             const FrameScratch& scratch)
-      : volume_(volume), intr_(intr), T_world_cam_(T_world_cam), maps_(maps), scratch_(scratch),
+  RayMarcher(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam, const RaycastMaps& maps)
+      : volume_(volume), intr_(intr), T_world_cam_(T_world_cam), maps_(maps),
         f_(make_ray_frame<Real>(volume, intr, T_world_cam)), flags_(volume.brick_flags()),
         tsdf_(volume.tsdf()), colour_(volume.colour()), colour_weight_(volume.colour_weight()),
         quant_(intr.max_range_m), last_(uint32_t(volume.dim() - 1)),
@@ -597,7 +596,6 @@ class RayMarcher {
   const PinholeIntrinsics& intr_;
   const Pose& T_world_cam_;
   const RaycastMaps& maps_;
-  const FrameScratch& scratch_;
   const RayFrame<Real> f_;
   const uint8_t* flags_;
   const int16_t* tsdf_;
@@ -637,9 +635,9 @@ struct PixelCursor {
 
 template <class Real>
 void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
-                  const RaycastMaps& maps, const FrameScratch& scratch, int row_begin, int row_end) {
+                  const RaycastMaps& maps, int row_begin, int row_end) {
   if (row_begin >= row_end || volume.dim() > kRaycastDimMax) return;  // prepare_raycast refused it
-  const RayMarcher<Real> marcher(volume, intr, T_world_cam, maps, scratch);
+  const RayMarcher<Real> marcher(volume, intr, T_world_cam, maps);
   PixelCursor cursor(intr.width, row_begin, row_end);
   RayState<Real> ray;
   int u, v;
@@ -659,14 +657,14 @@ Status raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Po
                const RaycastMaps& maps, FrameScratch& scratch) {
   const Status s = prepare_raycast(volume, intr, T_world_cam, maps, scratch);
   if (s != Status::kOk) return s;
-  raycast_rows<Real>(volume, intr, T_world_cam, maps, scratch, 0, intr.height);
+  raycast_rows<Real>(volume, intr, T_world_cam, maps, 0, intr.height);
   return Status::kOk;
 }
 
 #define EDGEFUSE_INSTANTIATE(Real)                                                                                 \
   template bool sample_tsdf<Real>(const TsdfVolume&, const Vec3f&, float&);                                       \
-  template void raycast_rows<Real>(const TsdfVolume&, const PinholeIntrinsics&, const Pose&, const RaycastMaps&, \
-                                   const FrameScratch&, int, int);                                                \
+  template void raycast_rows<Real>(const TsdfVolume&, const PinholeIntrinsics&, const Pose&, const RaycastMaps&, int, \
+                                   int);                                                                          \
   template Status raycast<Real>(const TsdfVolume&, const PinholeIntrinsics&, const Pose&, const RaycastMaps&,     \
                                 FrameScratch&);
 EDGEFUSE_INSTANTIATE(float)

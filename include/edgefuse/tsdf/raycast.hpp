@@ -50,7 +50,7 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
 //! Step 2: rows [row_begin, row_end) of the raycast. Thread-safe for disjoint row ranges.
 template <class Real>
 void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
-                  const RaycastMaps& maps, const FrameScratch& scratch, int row_begin, int row_end);
+                  const RaycastMaps& maps, int row_begin, int row_end);
 
 //! Both steps, the whole image on the calling thread.
 template <class Real>
