@@ -168,7 +168,7 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
   for (std::size_t b = 0; b < bricks; ++b) {
     if (!(flags[b] & kBrickSurface)) continue;
     // Without mask storage every block of a surface brick counts; a zero mask means every
-    // observed voxel is back at +1: no crossing here.
+    // observed voxel is positive: no crossing here.
     const uint64_t m = brick_mask(b);
     if (m == 0) continue;
     int bc[3];
@@ -262,8 +262,8 @@ class RayMarcher {
         nb_(uint32_t(volume.bricks_per_axis())), nb2_(nb_ * nb_), dy_wrap_(nb_ * kBrickVoxels - 56u),
         dz_wrap_(nb2_ * kBrickVoxels - 448u),
         // A voxel of slack around the pixel's range (raycast_bounds.hpp), which is exact only up
-        // to float rounding; the marked positive band in front of a surface lies inside the range,
-        // so the march still meets a positive sample before every crossing.
+        // to float rounding: every crossing lies inside the range, so the march's first sample is
+        // at least this far in front of it (in the positive band of a surface seen from here).
         margin_(real_from<Real>(volume.voxel_m())),
         want_vertex_(!maps.vertex.empty()), want_normal_(!maps.normal.empty()), clear_colour_(!maps.colour.empty()),
         want_colour_(!maps.colour.empty() && volume.has_colour()) {

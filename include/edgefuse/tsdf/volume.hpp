@@ -49,7 +49,7 @@ struct VoxelStorage {
   uint32_t* brick_list = nullptr;     //!< (capacity_dim/8)^3: bricks selected for one update
   //! (capacity_dim/8)^3, optional (null: the raycast bounds its search by whole bricks). Bit
   //! (z/2)*16 + (y/2)*4 + x/2 of a kBrickSurface brick is set when the 2^3 voxels at local
-  //! (x, y, z) hold an observed distance < +1; integration keeps it current (block_mask.hpp).
+  //! (x, y, z) hold an observed distance <= 0; integration keeps it current (block_mask.hpp).
   uint64_t* block_mask = nullptr;
   int capacity_dim = 0;               //!< voxels per axis the buffers hold
 };
