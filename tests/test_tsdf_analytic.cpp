@@ -396,7 +396,7 @@ TEST(TsdfAnalytic, PerPixelBoundsHoldEveryTrueSurfaceAndStartNearIt) {
     for (int v = 1; v < cam.height - 1; ++v)
       for (int u = 1; u < cam.width - 1; ++u) {
         float near_m = 0, far_m = 0;
-        const bool has = raycast_bounds::read(views.depth_m, u, v, q, near_m, far_m);
+        const bool has = raycast_bounds::read(views.depth_m.at(u, v), q, near_m, far_m);
         marched += has;
         const std::size_t i = std::size_t(v) * cam.width + u;
         if (truth[i] == 0 || cosi[i] < 0.5f) continue;

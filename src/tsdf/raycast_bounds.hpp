@@ -75,14 +75,13 @@ inline void merge_rect(const ImageView<float>& depth, int u0, int u1, int v0, in
   }
 }
 
-//! Reads pixel (u, v)'s bound; false when no block covers it. Call before the pixel is written.
-//! \param depth the depth map prepared by prepare_raycast
-//! \param u, v the pixel
+//! Reads a pixel's bound; false when no block covers it. Call before the pixel is written.
+//! \param pixel the pixel's float in the depth map prepared by prepare_raycast
 //! \param q the frame's quantisation
 //! \param near_m, far_m the z range, out
-inline bool read(const ImageView<float>& depth, int u, int v, const Quant& q, float& near_m, float& far_m) {
+inline bool read(const float& pixel, const Quant& q, float& near_m, float& far_m) {
   int16_t h[2];
-  std::memcpy(h, &depth.at(u, v), sizeof h);
+  std::memcpy(h, &pixel, sizeof h);
   if (h[0] == kEmpty) return false;
   near_m = float(int32_t(h[0]) + 32768) * q.unit_m;
   far_m = float(32767 - int32_t(h[1])) * q.unit_m;
