@@ -14,7 +14,13 @@ namespace {
 
 template <class Real>
 Real abs_r(Real v) {
-  return v < real_from_int<Real>(0) ? real_from_int<Real>(0) - v : v;
+  // The float build clears the sign bit: GCC compiled the select as a branch, which the march's
+  // distance step (samples on both sides of a surface) mispredicted often.
+  if constexpr (std::is_same<Real, float>::value) {
+    return __builtin_fabsf(v);
+  } else {
+    return v < real_from_int<Real>(0) ? real_from_int<Real>(0) - v : v;
+  }
 }
 template <class Real>
 Real max_r(Real a, Real b) {
@@ -244,8 +250,8 @@ struct RayState {
   Real nudge;        // 1/64 voxel
   Real half_trunc;   // half the truncation
   Real far_step;     // from a voxel at +trunc the surface is at least trunc - 1 voxel away
-  Real prev_t, prev_s;
-  bool prev_valid;
+  Real prev_t;
+  Real prev_s;  // the last sample's value when it can start a crossing, else 0 (no crossing next)
 };
 
 enum class MarchResult { kGoing, kHit, kMiss };
@@ -313,7 +319,6 @@ class RayMarcher {
     // Start and stop a little inside the grid: the clip is exact only up to rounding.
     r.t += r.nudge;
     r.t_end -= r.nudge;
-    r.prev_valid = false;
     r.prev_t = zero;
     r.prev_s = zero;
     return true;
@@ -458,7 +463,7 @@ class RayMarcher {
       int axis;
       const Real t_next = brick_exit(f_, r.dir, cell, axis) + r.nudge;
       r.t = t_next > r.t + r.nudge ? t_next : r.t + r.min_step;
-      r.prev_valid = false;
+      r.prev_s = zero;
       return MarchResult::kGoing;
     }
     if (!(bf & kBrickSurface)) {
@@ -469,7 +474,7 @@ class RayMarcher {
       const Real t_last_cell = t_exit - r.dir.last_cell[axis];
       if (t_last_cell > r.t + r.min_step) {
         r.t = t_last_cell;
-        r.prev_valid = false;
+        r.prev_s = zero;
         return MarchResult::kGoing;
       }
     }
@@ -486,12 +491,11 @@ class RayMarcher {
       // positive band (at least trunc deep along any ray) observed, so half a truncation lands
       // in that band before its zero crossing, never beyond it.
       r.t += r.half_trunc;
-      r.prev_valid = false;
+      r.prev_s = zero;
       return MarchResult::kGoing;
     }
     if (nq == kTsdfMax) {
-      r.prev_valid = true;  // a +1 sample: the crossing, if next, lies between here and there
-      r.prev_t = r.t;
+      r.prev_t = r.t;  // a +1 sample: the crossing, if next, lies between here and there
       r.prev_s = one;
       r.t += r.far_step;
       return MarchResult::kGoing;
@@ -500,11 +504,12 @@ class RayMarcher {
     load_corners(a, k);
     if (!k.observed) {
       r.t += r.half_trunc;  // another corner is unobserved: as above
-      r.prev_valid = false;
+      r.prev_s = zero;
       return MarchResult::kGoing;
     }
     const Real s = lerp_cell(k, fx, fy, fz);
-    if (r.prev_valid && r.prev_s > zero && !(s > zero)) {
+    // One branch for both conditions (bitwise &): which sample ends the march is unpredictable.
+    if ((r.prev_s > zero) & !(s > zero)) {
       // Zero crossing between prev_t and t: regula falsi on the trilinear field.
       Real ta = r.prev_t, sa = r.prev_s, tb = r.t, sb = s;
       for (int it = 0; it < 3; ++it) {
@@ -533,7 +538,6 @@ class RayMarcher {
       t_hit = sa > sb ? ta + (tb - ta) * (sa / (sa - sb)) : ta;
       return MarchResult::kHit;
     }
-    r.prev_valid = true;
     r.prev_t = r.t;
     r.prev_s = s;
     // Step by the distance itself (the projective TSDF bounds the distance to the surface).
