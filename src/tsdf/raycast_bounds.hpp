@@ -5,9 +5,10 @@
 //
 // Storage: no memory of its own. Each pixel's bound is packed into the 4 bytes of that pixel's
 // depth-map float (two int16: the near z and the negated far z, in steps of max_range / 65534,
-// offset by -32768 so that SSE2's signed 16-bit minimum applies), which RayMarcher::start reads
-// before it clears the pixel. Negating the far z makes both halves minima, so merging a block
-// into a pixel, and widening the bounds (dilate), are element-wise minima over int16s.
+// offset by -32768 so that a signed 16-bit minimum applies: SSE2's pminsw, NEON's vmin.s16),
+// which RayMarcher::start reads before it clears the pixel. Negating the far z makes both halves
+// minima, so merging a block into a pixel, and widening the bounds (dilate), are element-wise
+// minima over int16s.
 // Private to src/.
 #pragma once
 
@@ -56,6 +57,25 @@ inline int16_t far_half(int32_t far_q) { return int16_t(32767 - far_q); }
 // has cleared them).
 using alias_i16 = int16_t __attribute__((__may_alias__));
 
+// GCC vector extensions (SSE2 on x86-64, NEON on ARM, scalar code where neither exists), as in
+// row_projection.hpp: four blocks projected at once, eight int16 halves minimised at once.
+namespace lanes {
+typedef float F4 __attribute__((vector_size(16)));
+typedef int32_t I4 __attribute__((vector_size(16)));
+typedef int16_t S8 __attribute__((vector_size(16)));
+inline F4 splat_f(float x) { return F4{x, x, x, x}; }
+inline I4 splat_i(int32_t x) { return I4{x, x, x, x}; }
+inline F4 min_f(F4 a, F4 b) { return a < b ? a : b; }
+inline F4 max_f(F4 a, F4 b) { return a > b ? a : b; }
+inline S8 load8(const alias_i16* p) {
+  S8 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store8(alias_i16* p, S8 v) { std::memcpy(p, &v, sizeof v); }
+inline S8 min8(S8 a, S8 b) { return a < b ? a : b; }
+}  // namespace lanes
+
 //! Sets every pixel of the depth map to "no bound".
 inline void clear(const ImageView<float>& depth) {
   for (int v = 0; v < depth.height; ++v) {
@@ -64,11 +84,15 @@ inline void clear(const ImageView<float>& depth) {
 }
 
 //! Merges the halves (near_half / far_half, kEmpty for "none") into pixels [u0, u1] x [v0, v1]
-//! (inclusive, inside the image).
+//! (inclusive, inside the image); four pixels per vector minimum.
 inline void merge_rect(const ImageView<float>& depth, int u0, int u1, int v0, int v1, int16_t nh, int16_t fh) {
+  using namespace lanes;
+  const S8 pair = S8{nh, fh, nh, fh, nh, fh, nh, fh};
   for (int v = v0; v <= v1; ++v) {
     alias_i16* p = reinterpret_cast<alias_i16*>(depth.row(v)) + 2 * u0;
-    for (int u = u0; u <= u1; ++u, p += 2) {
+    int u = u0;
+    for (; u + 4 <= u1 + 1; u += 4, p += 8) store8(p, min8(load8(p), pair));
+    for (; u <= u1; ++u, p += 2) {
       p[0] = p[0] < nh ? p[0] : nh;
       p[1] = p[1] < fh ? p[1] : fh;
     }
@@ -197,8 +221,8 @@ class Splatter {
   //! \param intr the sensor
   //! \param T_cam_world maps world points into the sensor frame
   //! \param voxel_m the voxel size
-  //! \param dilate true: blocks whose footprint fits within kDilate pixels of one pixel write only
-  //!        that pixel, and dilate() must run after the last brick; false: whole footprints
+  //! \param dilate true: blocks write their footprints shrunk by kDilate (at least the middle
+  //!        pixel), and dilate() must run after the last brick; false: whole footprints
   Splatter(const ImageView<float>& depth, const PinholeIntrinsics& intr, const Pose& T_cam_world, float voxel_m,
            bool dilate)
       : depth_(depth), intr_(intr), q_(intr.max_range_m), reach_m_(kReachVoxels * voxel_m), dilate_(dilate) {
@@ -250,38 +274,79 @@ class Splatter {
   }
 
   // The fast path: the brick's radius around each block's projected centre, written shrunk by
-  // kDilate (dilate() widens it back).
+  // kDilate (dilate() widens it back). Four blocks at a time: the same operations as one block at
+  // a time (same roundings and clamps, lane by lane), so the same pixels and halves; a group of
+  // fewer than four repeats its last block (a repeated minimum changes nothing).
   void centres(const Sides& sides, const Vec3f& c0, float r_u, float r_v) const {
+    using namespace lanes;
     const int w = intr_.width, h = intr_.height;
     const float eps_px = 0.01f;  // rounding of the projection
     // floor(u - r) + 1 and floor(u + r) with the shift of floor_px folded into the offsets.
-    const float off_u0 = intr_.cx - r_u - eps_px + kShift, off_u1 = intr_.cx + r_u + eps_px + kShift;
-    const float off_v0 = intr_.cy - r_v - eps_px + kShift, off_v1 = intr_.cy + r_v + eps_px + kShift;
+    const F4 off_u0 = splat_f(intr_.cx - r_u - eps_px + kShift), off_u1 = splat_f(intr_.cx + r_u + eps_px + kShift);
+    const F4 off_v0 = splat_f(intr_.cy - r_v - eps_px + kShift), off_v1 = splat_f(intr_.cy + r_v + eps_px + kShift);
+    const F4 cx = splat_f(c0.x()), cy = splat_f(c0.y()), cz = splat_f(c0.z());
+    const F4 fx = splat_f(intr_.fx), fy = splat_f(intr_.fy), one = splat_f(1.0f);
+    const F4 px_lo = splat_f(0.0f), px_hi = splat_f(16384.0f);
+    const F4 reach = splat_f(reach_m_), inv_unit = splat_f(q_.inv_unit), top = splat_f(float(Quant::kTop));
+    const I4 zero = splat_i(0), w1 = splat_i(w - 1), h1 = splat_i(h - 1), empty = splat_i(kEmpty);
+    const I4 span = splat_i(2 * kDilate), dil = splat_i(kDilate);
     uint64_t mask = sides.front | sides.back;
     while (mask != 0) {
-      const int bit = __builtin_ctzll(mask);
-      mask &= mask - 1;
-      const float z = c0.z() + oz_[bit];
-      const float inv = 1.0f / z;
-      const float pu = intr_.fx * (c0.x() + ox_[bit]) * inv, pv = intr_.fy * (c0.y() + oy_[bit]) * inv;
+      int bit[4];
+      int n = 0;
+      for (; n < 4 && mask != 0; ++n) {
+        bit[n] = __builtin_ctzll(mask);
+        mask &= mask - 1;
+      }
+      for (int l = n; l < 4; ++l) bit[l] = bit[n - 1];
+      const F4 z = cz + F4{oz_[bit[0]], oz_[bit[1]], oz_[bit[2]], oz_[bit[3]]};
+      const F4 inv = one / z;
+      const F4 pu = fx * (cx + F4{ox_[bit[0]], ox_[bit[1]], ox_[bit[2]], ox_[bit[3]]}) * inv;
+      const F4 pv = fy * (cy + F4{oy_[bit[0]], oy_[bit[1]], oy_[bit[2]], oy_[bit[3]]}) * inv;
       // pu, pv are huge for blocks far off the axis: the clamp keeps the conversion defined (a
       // clamped end lies outside any image, and the test below drops the block).
-      int iu0 = int(clamp_px(pu + off_u0)) - (kIShift - 1), iu1 = int(clamp_px(pu + off_u1)) - kIShift;
-      int iv0 = int(clamp_px(pv + off_v0)) - (kIShift - 1), iv1 = int(clamp_px(pv + off_v1)) - kIShift;
-      if (iu1 < 0 || iv1 < 0 || iu0 >= w || iv0 >= h) continue;
-      const int16_t nh = (sides.front >> bit) & 1u ? near_half(q_.floor_q(z - reach_m_)) : kEmpty;
-      const int16_t fh = (sides.back >> bit) & 1u ? far_half(q_.ceil_q(z + reach_m_)) : kEmpty;
-      shrink(iu0, iu1);
-      shrink(iv0, iv1);
-      // r <= kDilate + 1 leaves a span of at most 2 (r + eps) = 6 pixel steps, i.e. at most 3 pixels
-      // per axis after the shrink: bounded loops with an early exit (no vector set-up for such
-      // short rows; the bound of 4 is slack).
-      const int u0 = clamp(iu0, w), u1 = clamp(iu1, w), v0 = clamp(iv0, h), v1 = clamp(iv1, h);
-      for (int j = 0; j < 4 && v0 + j <= v1; ++j) {
-        alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(v0 + j)) + 2 * u0;
-        for (int i = 0; i < 4 && u0 + i <= u1; ++i, p += 2) {
-          p[0] = p[0] < nh ? p[0] : nh;
-          p[1] = p[1] < fh ? p[1] : fh;
+      I4 iu0 = __builtin_convertvector(min_f(max_f(pu + off_u0, px_lo), px_hi), I4) - (kIShift - 1);
+      I4 iu1 = __builtin_convertvector(min_f(max_f(pu + off_u1, px_lo), px_hi), I4) - kIShift;
+      I4 iv0 = __builtin_convertvector(min_f(max_f(pv + off_v0, px_lo), px_hi), I4) - (kIShift - 1);
+      I4 iv1 = __builtin_convertvector(min_f(max_f(pv + off_v1, px_lo), px_hi), I4) - kIShift;
+      const I4 seen = (iu1 >= zero) & (iv1 >= zero) & (iu0 <= w1) & (iv0 <= h1);
+      // Quant::floor_q / ceil_q lane-wise: clamped into [0, kTop], truncated, and rounded up
+      // where the truncation lost a fraction.
+      const F4 qn = min_f(max_f((z - reach) * inv_unit, px_lo), top);
+      const F4 qf = min_f(max_f((z + reach) * inv_unit, px_lo), top);
+      const I4 tf = __builtin_convertvector(qf, I4);
+      const I4 near_q = __builtin_convertvector(qn, I4);
+      const I4 far_q = tf - (__builtin_convertvector(tf, F4) < qf);  // true lanes are -1
+      const I4 is_front = I4{int32_t(sides.front >> bit[0]), int32_t(sides.front >> bit[1]),
+                             int32_t(sides.front >> bit[2]), int32_t(sides.front >> bit[3])} & 1;
+      const I4 is_back = I4{int32_t(sides.back >> bit[0]), int32_t(sides.back >> bit[1]),
+                            int32_t(sides.back >> bit[2]), int32_t(sides.back >> bit[3])} & 1;
+      const I4 nh = is_front != zero ? near_q - 32768 : empty;
+      const I4 fh = is_back != zero ? 32767 - far_q : empty;
+      // shrink() and clamp() lane-wise.
+      const I4 mid_u = (iu0 + iu1) >> 1, mid_v = (iv0 + iv1) >> 1;
+      const I4 wide_u = iu1 - iu0 >= span, wide_v = iv1 - iv0 >= span;
+      iu0 = wide_u ? iu0 + dil : mid_u;
+      iu1 = wide_u ? iu1 - dil : mid_u;
+      iv0 = wide_v ? iv0 + dil : mid_v;
+      iv1 = wide_v ? iv1 - dil : mid_v;
+      iu0 = iu0 < zero ? zero : (iu0 > w1 ? w1 : iu0);
+      iu1 = iu1 < zero ? zero : (iu1 > w1 ? w1 : iu1);
+      iv0 = iv0 < zero ? zero : (iv0 > h1 ? h1 : iv0);
+      iv1 = iv1 < zero ? zero : (iv1 > h1 ? h1 : iv1);
+      for (int l = 0; l < n; ++l) {
+        if (seen[l] == 0) continue;
+        const int16_t nh_l = int16_t(nh[l]), fh_l = int16_t(fh[l]);
+        const int u0 = iu0[l], u1 = iu1[l], v0 = iv0[l], v1 = iv1[l];
+        // r <= kDilate + 1 leaves a span of at most 2 (r + eps) = 6 pixel steps, i.e. at most 3
+        // pixels per axis after the shrink: bounded loops with an early exit (no vector set-up for
+        // such short rows; the bound of 4 is slack).
+        for (int j = 0; j < 4 && v0 + j <= v1; ++j) {
+          alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(v0 + j)) + 2 * u0;
+          for (int i = 0; i < 4 && u0 + i <= u1; ++i, p += 2) {
+            p[0] = p[0] < nh_l ? p[0] : nh_l;
+            p[1] = p[1] < fh_l ? p[1] : fh_l;
+          }
         }
       }
     }
@@ -289,10 +354,10 @@ class Splatter {
 
   static constexpr float kShift = 4096.0f;
   static constexpr int kIShift = 4096;
-  static float clamp_px(float x) { return std::min(std::max(x, 0.0f), 16384.0f); }
 
   // The general path: each block's whole footprint (near the sensor, or without dilation).
   void footprints(const Sides& sides, const Vec3f& c0) const {
+    const int d = dilate_ ? kDilate : 0;  // dilate() widens every written pixel by d
     const float eps_px = 0.01f;  // rounding of the projection
     uint64_t mask = sides.front | sides.back;
     while (mask != 0) {
@@ -320,27 +385,26 @@ class Splatter {
       int iu0 = -floor_px(eps_px - u_lo), iu1 = floor_px(u_hi + eps_px);
       int iv0 = -floor_px(eps_px - v_lo), iv1 = floor_px(v_hi + eps_px);
       if (iu1 < 0 || iv1 < 0 || iu0 >= intr_.width || iv0 >= intr_.height) continue;
-      if (dilate_) {
-        // dilate() widens every written pixel by kDilate: write the footprint shrunk by that much
-        // (at least its middle pixel), so that the widened result is the footprint again.
-        shrink(iu0, iu1);
-        shrink(iv0, iv1);
-      }
-      merge_rect(depth_, clamp(iu0, intr_.width), clamp(iu1, intr_.width), clamp(iv0, intr_.height),
-                 clamp(iv1, intr_.height), nh, fh);
+      // Write the footprint shrunk by d (at least its middle pixel), so that the widened result is
+      // the footprint again.
+      shrink(iu0, iu1, d);
+      shrink(iv0, iv1, d);
+      iu0 = clamp(iu0, intr_.width), iu1 = clamp(iu1, intr_.width);
+      iv0 = clamp(iv0, intr_.height), iv1 = clamp(iv1, intr_.height);
+      merge_rect(depth_, iu0, iu1, iv0, iv1, nh, fh);
     }
   }
 
-  static void shrink(int& lo, int& hi) {
-    if (hi - lo >= 2 * kDilate) {
-      lo += kDilate;
-      hi -= kDilate;
+  static void shrink(int& lo, int& hi, int d) {
+    if (hi - lo >= 2 * d) {
+      lo += d;
+      hi -= d;
     } else {
       lo = hi = (lo + hi) >> 1;
     }
   }
-  // Clamping a range's ends into the image keeps every image pixel within kDilate of it that was
-  // within kDilate of the range.
+  // Clamping a range's ends into the image keeps every image pixel within d of it that was
+  // within d of the range.
   static int clamp(int i, int size) { return i < 0 ? 0 : (i >= size ? size - 1 : i); }
 
   // floor() of a pixel coordinate without a libm call: clamped far outside any image (the result
