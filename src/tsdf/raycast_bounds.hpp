@@ -123,40 +123,66 @@ inline constexpr int kDilate = 2;
 inline constexpr int kDilateWidthMax = 1024;
 
 //! Square min filter of half-size kDilate over both halves of every pixel, in place.
+//! Only where something was written: each row's first and last covered pixels are found from its
+//! ends (8 bytes per test: an empty pixel is the byte pattern of kEmpty); the row pass filters
+//! each row between them (plus kDilate), the column pass the box of all of them (plus kDilate).
+//! Everything outside is empty before and after.
 //! \param depth the depth map holding the packed bounds (width <= kDilateWidthMax)
 inline void dilate(const ImageView<float>& depth) {
-  const int w2 = 2 * depth.width, h = depth.height;
+  const int w = depth.width, h = depth.height;
   constexpr int kPad = 2 * kDilate;  // int16s of "empty" on either side of a row copy
+  constexpr uint64_t kEmptyWord = 0x7F7F7F7F7F7F7F7Full;
   // Rows: each output is the minimum of the row's 2 kDilate + 1 pixels around it, in one pass
-  // over a padded copy (every pixel is two int16s: the neighbours are 2 d apart).
+  // over a padded copy of the covered span (every pixel is two int16s: the neighbours are 2 d
+  // apart).
   alias_i16 tmp[2 * kDilateWidthMax + 2 * kPad];
-  for (int k = 0; k < kPad; ++k) tmp[k] = tmp[kPad + w2 + k] = kEmpty;
+  int box_u0 = w, box_u1 = -1, box_v0 = h, box_v1 = -1;
   for (int v = 0; v < h; ++v) {
     alias_i16* row = reinterpret_cast<alias_i16*>(depth.row(v));
-    std::memcpy(tmp + kPad, row, sizeof(int16_t) * std::size_t(w2));
-    for (int k = 0; k < w2; ++k) {
+    const auto empty_pair = [&](int u0) {  // pixels u0, u0 + 1 hold no bound
+      uint64_t word;
+      std::memcpy(&word, row + 2 * u0, sizeof word);
+      return word == kEmptyWord;
+    };
+    int a = 0, b = w - 1;  // first and last pixel that may hold a bound
+    while (a + 1 < w && empty_pair(a)) a += 2;
+    while (b - 1 >= a && empty_pair(b - 1)) b -= 2;
+    if (w >= 2 && a == b && empty_pair(std::min(a, w - 2))) continue;  // a lone pixel left: the pair holds it
+    if (a > b) continue;
+    // [a, b] now holds every covered pixel (the pair tests may leave one empty pixel at an end).
+    box_v0 = std::min(box_v0, v), box_v1 = v;
+    a = std::max(a - kDilate, 0), b = std::min(b + kDilate, w - 1);
+    box_u0 = std::min(box_u0, a), box_u1 = std::max(box_u1, b);
+    const int n2 = 2 * (b - a + 1);
+    for (int k = 0; k < kPad; ++k) tmp[k] = tmp[kPad + n2 + k] = kEmpty;
+    std::memcpy(tmp + kPad, row + 2 * a, sizeof(int16_t) * std::size_t(n2));
+    alias_i16* out = row + 2 * a;
+    for (int k = 0; k < n2; ++k) {
       int16_t m = tmp[kPad + k];
       for (int d = 1; d <= kDilate; ++d) {
         m = m < tmp[kPad + k - 2 * d] ? m : tmp[kPad + k - 2 * d];
         m = m < tmp[kPad + k + 2 * d] ? m : tmp[kPad + k + 2 * d];
       }
-      row[k] = m;
+      out[k] = m;
     }
   }
+  if (box_v1 < 0) return;
   // Columns: row v becomes the minimum of rows v - kDilate .. v + kDilate. The rows above and
   // this one are already being overwritten, so their row-filtered values are kept in a ring;
-  // missing rows (beyond the image) are stood in for by this row's own copy.
+  // rows beyond [v0, v1] (empty, or beyond the image) are stood in for by this row's own copy.
+  const int v0 = std::max(box_v0 - kDilate, 0), v1 = std::min(box_v1 + kDilate, h - 1);
+  const int a2 = 2 * box_u0, n2 = 2 * (box_u1 - box_u0 + 1);
   alias_i16 ring[kDilate + 1][2 * kDilateWidthMax];
-  for (int v = 0; v < h; ++v) {
-    alias_i16* row = reinterpret_cast<alias_i16*>(depth.row(v));
+  for (int v = v0; v <= v1; ++v) {
+    alias_i16* row = reinterpret_cast<alias_i16*>(depth.row(v)) + a2;
     alias_i16* own = ring[v % (kDilate + 1)];
-    std::memcpy(own, row, sizeof(int16_t) * std::size_t(w2));
+    std::memcpy(own, row, sizeof(int16_t) * std::size_t(n2));
     const alias_i16* others[2 * kDilate];
     for (int d = 1; d <= kDilate; ++d) {
-      others[2 * d - 2] = v - d >= 0 ? ring[(v - d) % (kDilate + 1)] : own;
-      others[2 * d - 1] = v + d < h ? reinterpret_cast<const alias_i16*>(depth.row(v + d)) : own;
+      others[2 * d - 2] = v - d >= v0 ? ring[(v - d) % (kDilate + 1)] : own;
+      others[2 * d - 1] = v + d <= v1 ? reinterpret_cast<const alias_i16*>(depth.row(v + d)) + a2 : own;
     }
-    for (int k = 0; k < w2; ++k) {
+    for (int k = 0; k < n2; ++k) {
       int16_t m = own[k];
       for (int i = 0; i < 2 * kDilate; ++i) m = m < others[i][k] ? m : others[i][k];
       row[k] = m;
