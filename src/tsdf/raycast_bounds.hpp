@@ -335,8 +335,10 @@ class Splatter {
     const F4 fx = splat_f(intr_.fx), fy = splat_f(intr_.fy), one = splat_f(1.0f);
     const F4 px_lo = splat_f(0.0f), px_hi = splat_f(16384.0f);
     const F4 reach = splat_f(reach_m_), inv_unit = splat_f(q_.inv_unit), top = splat_f(float(Quant::kTop));
-    const I4 zero = splat_i(0), w1 = splat_i(w - 1), h1 = splat_i(h - 1), empty = splat_i(kEmpty);
-    const I4 span = splat_i(2 * kDilate), dil = splat_i(kDilate);
+    const I4 zero = splat_i(0), empty = splat_i(kEmpty);
+    const int16_t w1 = int16_t(w - 1), h1 = int16_t(h - 1);
+    const S8 zero8 = S8{0, 0, 0, 0, 0, 0, 0, 0}, last8 = S8{w1, w1, w1, w1, h1, h1, h1, h1};
+    const S8 span8 = zero8 + int16_t(2 * kDilate), dil8 = zero8 + int16_t(kDilate);
     uint64_t mask = sides.front | sides.back;
     while (mask != 0) {
       int bit[4];
@@ -352,11 +354,15 @@ class Splatter {
       const F4 pv = fy * (cy + F4{oy_[bit[0]], oy_[bit[1]], oy_[bit[2]], oy_[bit[3]]}) * inv;
       // pu, pv are huge for blocks far off the axis: the clamp keeps the conversion defined (a
       // clamped end lies outside any image, and the test below drops the block).
-      I4 iu0 = __builtin_convertvector(min_f(max_f(pu + off_u0, px_lo), px_hi), I4) - (kIShift - 1);
-      I4 iu1 = __builtin_convertvector(min_f(max_f(pu + off_u1, px_lo), px_hi), I4) - kIShift;
-      I4 iv0 = __builtin_convertvector(min_f(max_f(pv + off_v0, px_lo), px_hi), I4) - (kIShift - 1);
-      I4 iv1 = __builtin_convertvector(min_f(max_f(pv + off_v1, px_lo), px_hi), I4) - kIShift;
-      const I4 seen = (iu1 >= zero) & (iv1 >= zero) & (iu0 <= w1) & (iv0 <= h1);
+      const I4 iu0 = __builtin_convertvector(min_f(max_f(pu + off_u0, px_lo), px_hi), I4) - (kIShift - 1);
+      const I4 iu1 = __builtin_convertvector(min_f(max_f(pu + off_u1, px_lo), px_hi), I4) - kIShift;
+      const I4 iv0 = __builtin_convertvector(min_f(max_f(pv + off_v0, px_lo), px_hi), I4) - (kIShift - 1);
+      const I4 iv1 = __builtin_convertvector(min_f(max_f(pv + off_v1, px_lo), px_hi), I4) - kIShift;
+      // The pixel ends lie in [-4096, 12288]: as int16 (u in lanes 0-3, v in 4-7) the shrink and
+      // the clamps below are 8 lanes of single minima and maxima.
+      S8 lo = __builtin_convertvector(__builtin_shufflevector(iu0, iv0, 0, 1, 2, 3, 4, 5, 6, 7), S8);
+      S8 hi = __builtin_convertvector(__builtin_shufflevector(iu1, iv1, 0, 1, 2, 3, 4, 5, 6, 7), S8);
+      const S8 in = (hi >= zero8) & (lo <= last8);  // lane l and l + 4 both: the block is in the image
       // Quant::floor_q / ceil_q lane-wise: clamped into [0, kTop], truncated, and rounded up
       // where the truncation lost a fraction.
       const F4 qn = min_f(max_f((z - reach) * inv_unit, px_lo), top);
@@ -371,20 +377,18 @@ class Splatter {
       const I4 nh = is_front != zero ? near_q - 32768 : empty;
       const I4 fh = is_back != zero ? 32767 - far_q : empty;
       // shrink() and clamp() lane-wise.
-      const I4 mid_u = (iu0 + iu1) >> 1, mid_v = (iv0 + iv1) >> 1;
-      const I4 wide_u = iu1 - iu0 >= span, wide_v = iv1 - iv0 >= span;
-      iu0 = wide_u ? iu0 + dil : mid_u;
-      iu1 = wide_u ? iu1 - dil : mid_u;
-      iv0 = wide_v ? iv0 + dil : mid_v;
-      iv1 = wide_v ? iv1 - dil : mid_v;
-      iu0 = iu0 < zero ? zero : (iu0 > w1 ? w1 : iu0);
-      iu1 = iu1 < zero ? zero : (iu1 > w1 ? w1 : iu1);
-      iv0 = iv0 < zero ? zero : (iv0 > h1 ? h1 : iv0);
-      iv1 = iv1 < zero ? zero : (iv1 > h1 ? h1 : iv1);
+      const S8 mid = (lo + hi) >> 1;
+      const S8 wide = hi - lo >= span8;
+      lo = wide ? lo + dil8 : mid;
+      hi = wide ? hi - dil8 : mid;
+      lo = lo > last8 ? last8 : lo;
+      lo = lo < zero8 ? zero8 : lo;
+      hi = hi > last8 ? last8 : hi;
+      hi = hi < zero8 ? zero8 : hi;
       for (int l = 0; l < n; ++l) {
-        if (seen[l] == 0) continue;
+        if ((in[l] & in[l + 4]) == 0) continue;
         const int16_t nh_l = int16_t(nh[l]), fh_l = int16_t(fh[l]);
-        const int u0 = iu0[l], u1 = iu1[l], v0 = iv0[l], v1 = iv1[l];
+        const int u0 = lo[l], u1 = hi[l], v0 = lo[l + 4], v1 = hi[l + 4];
         // r <= kDilate + 1 leaves a span of at most 2 (r + eps) = 6 pixel steps, i.e. at most 3
         // pixels per axis after the shrink: bounded loops with an early exit (no vector set-up for
         // such short rows, measured: merge_rect's one masked vector per row costs 12 % more here;
