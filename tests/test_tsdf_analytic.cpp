@@ -476,34 +476,41 @@ TEST(TsdfAnalytic, BoundsDilationEqualsThePlainSquareMinFilter) {
   CHECK(cases == 9 * 5 * 3);
 }
 
-// merge_rect() writes four pixels per vector, the last four of a row again (overlapping) and
-// rects narrower than four pixels as one vector with kEmpty lanes: every pixel in the rect must
-// get the minimum, every pixel outside it keep its value, also at the right border.
+// merge_rect() writes four pixels per vector: without alignment the last four of a row again
+// (overlapping) and rects narrower than four pixel by pixel; aligned (rows on 16 bytes, widths of
+// whole groups of four) the groups holding the rect with kEmpty lanes outside it. Every pixel in
+// the rect must get the minimum, every pixel outside it keep its value, also at the borders.
 TEST(TsdfAnalytic, BoundsRectMergeTouchesExactlyItsRect) {
   std::mt19937 rng(66);
-  const int w = 13, h = 5;
   std::uniform_int_distribution<int> half(-32768, raycast_bounds::kEmpty);
-  int wrong = 0;
-  for (int trial = 0; trial < 2000; ++trial) {
-    std::vector<int16_t> before(2 * w * h);
-    for (int16_t& x : before) x = int16_t(half(rng));
-    std::vector<float> img(std::size_t(w) * h);
-    std::memcpy(img.data(), before.data(), img.size() * sizeof(float));
-    const int u0 = std::uniform_int_distribution<int>(0, w - 1)(rng);
-    const int u1 = std::uniform_int_distribution<int>(u0, w - 1)(rng);
-    const int v0 = std::uniform_int_distribution<int>(0, h - 1)(rng);
-    const int v1 = std::uniform_int_distribution<int>(v0, h - 1)(rng);
-    const int16_t nh = int16_t(half(rng)), fh = trial % 5 == 0 ? raycast_bounds::kEmpty : int16_t(half(rng));
-    raycast_bounds::merge_rect(ImageView<float>{img.data(), w, h}, u0, u1, v0, v1, nh, fh);
-    std::vector<int16_t> after(before.size());
-    std::memcpy(after.data(), img.data(), img.size() * sizeof(float));
-    for (int v = 0; v < h; ++v)
-      for (int u = 0; u < w; ++u) {
-        const std::size_t k = 2 * (std::size_t(v) * w + u);
-        const bool in = u >= u0 && u <= u1 && v >= v0 && v <= v1;
-        wrong += after[k] != (in ? std::min(before[k], nh) : before[k]);
-        wrong += after[k + 1] != (in ? std::min(before[k + 1], fh) : before[k + 1]);
-      }
+  int wrong = 0, aligned_runs = 0;
+  for (const int w : {13, 16}) {
+    const int h = 5;
+    alignas(16) float img[16 * 5];
+    const ImageView<float> view{img, w, h};
+    for (int trial = 0; trial < 2000; ++trial) {
+      std::vector<int16_t> before(2 * w * h);
+      for (int16_t& x : before) x = int16_t(half(rng));
+      std::memcpy(img, before.data(), before.size() * sizeof(int16_t));
+      const int u0 = std::uniform_int_distribution<int>(0, w - 1)(rng);
+      const int u1 = std::uniform_int_distribution<int>(u0, w - 1)(rng);
+      const int v0 = std::uniform_int_distribution<int>(0, h - 1)(rng);
+      const int v1 = std::uniform_int_distribution<int>(v0, h - 1)(rng);
+      const int16_t nh = int16_t(half(rng)), fh = trial % 5 == 0 ? raycast_bounds::kEmpty : int16_t(half(rng));
+      const bool aligned = raycast_bounds::four_pixel_aligned(view);
+      aligned_runs += aligned;
+      raycast_bounds::merge_rect(view, u0, u1, v0, v1, nh, fh, aligned);
+      std::vector<int16_t> after(before.size());
+      std::memcpy(after.data(), img, after.size() * sizeof(int16_t));
+      for (int v = 0; v < h; ++v)
+        for (int u = 0; u < w; ++u) {
+          const std::size_t k = 2 * (std::size_t(v) * w + u);
+          const bool in = u >= u0 && u <= u1 && v >= v0 && v <= v1;
+          wrong += after[k] != (in ? std::min(before[k], nh) : before[k]);
+          wrong += after[k + 1] != (in ? std::min(before[k + 1], fh) : before[k + 1]);
+        }
+    }
   }
   LONGS_EQUAL(0, wrong);
+  LONGS_EQUAL(2000, aligned_runs);  // the 16-pixel rows, not the 13-pixel ones
 }
