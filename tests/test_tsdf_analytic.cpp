@@ -5,6 +5,9 @@
 // fixed-point kernels must stay within 0.25 voxel of the float ones.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <random>
 #include <vector>
 
 #include "edgefuse/tsdf/integrate.hpp"
@@ -423,4 +426,91 @@ TEST(TsdfAnalytic, PerPixelBoundsHoldEveryTrueSurfaceAndStartNearIt) {
     CHECK(inside == compared);
     CHECK(lead_voxels / std::max(covered, 1) < 13.0);  // 11.4 and 11.5 when written
   }
+}
+
+// Splat round 6: raycast_bounds::dilate() filters only between each row's first and last covered
+// pixels (found 8 bytes at a time from both ends) and the column pass only over their box. It
+// must still equal the plain 5x5 min filter of both halves (beyond the image: nothing), on
+// images of odd and even sizes (down to 1x1) and from empty to full.
+TEST(TsdfAnalytic, BoundsDilationEqualsThePlainSquareMinFilter) {
+  std::mt19937 rng(6);
+  const int sizes[][2] = {{1, 1}, {2, 1}, {1, 3}, {3, 2}, {5, 4}, {8, 8}, {17, 9}, {64, 3}, {320, 240}};
+  const double fill[] = {0.0, 0.0005, 0.01, 0.2, 1.0};
+  int cases = 0;
+  for (const auto& wh : sizes)
+    for (double p : fill)
+      for (int rep = 0; rep < 3; ++rep) {
+        const int w = wh[0], h = wh[1];
+        std::vector<float> img(std::size_t(w) * h);
+        std::memset(img.data(), 0x7F, img.size() * sizeof(float));  // raycast_bounds::clear()
+        std::vector<int16_t> in(2 * img.size(), raycast_bounds::kEmpty);
+        std::uniform_real_distribution<double> coin(0.0, 1.0);
+        std::uniform_int_distribution<int> half(-32768, raycast_bounds::kEmpty - 1);
+        for (std::size_t k = 0; k < img.size(); ++k) {
+          // Lone pixels at the ends of rows matter most: put some there whatever the fill.
+          const int u = int(k % std::size_t(w));
+          if (coin(rng) < p || (rep == 2 && (u == 0 || u == w - 1) && coin(rng) < 0.3)) {
+            in[2 * k] = int16_t(half(rng));
+            in[2 * k + 1] = coin(rng) < 0.2 ? raycast_bounds::kEmpty : int16_t(half(rng));
+          }
+        }
+        std::memcpy(img.data(), in.data(), img.size() * sizeof(float));
+        raycast_bounds::dilate(ImageView<float>{img.data(), w, h});
+        std::vector<int16_t> out(in.size());
+        std::memcpy(out.data(), img.data(), img.size() * sizeof(float));
+        int wrong = 0;
+        for (int v = 0; v < h; ++v)
+          for (int u = 0; u < w; ++u)
+            for (int c = 0; c < 2; ++c) {
+              int16_t m = raycast_bounds::kEmpty;
+              for (int dv = -raycast_bounds::kDilate; dv <= raycast_bounds::kDilate; ++dv)
+                for (int du = -raycast_bounds::kDilate; du <= raycast_bounds::kDilate; ++du) {
+                  const int uu = u + du, vv = v + dv;
+                  if (uu >= 0 && uu < w && vv >= 0 && vv < h) m = std::min(m, in[2 * (std::size_t(vv) * w + uu) + c]);
+                }
+              wrong += out[2 * (std::size_t(v) * w + u) + c] != m;
+            }
+        LONGS_EQUAL(0, wrong);
+        ++cases;
+      }
+  CHECK(cases == 9 * 5 * 3);
+}
+
+// merge_rect() writes four pixels per vector: without alignment the last four of a row again
+// (overlapping) and rects narrower than four pixel by pixel; aligned (rows on 16 bytes, widths of
+// whole groups of four) the groups holding the rect with kEmpty lanes outside it. Every pixel in
+// the rect must get the minimum, every pixel outside it keep its value, also at the borders.
+TEST(TsdfAnalytic, BoundsRectMergeTouchesExactlyItsRect) {
+  std::mt19937 rng(66);
+  std::uniform_int_distribution<int> half(-32768, raycast_bounds::kEmpty);
+  int wrong = 0, aligned_runs = 0;
+  for (const int w : {13, 16}) {
+    const int h = 5;
+    alignas(16) float img[16 * 5];
+    const ImageView<float> view{img, w, h};
+    for (int trial = 0; trial < 2000; ++trial) {
+      std::vector<int16_t> before(2 * w * h);
+      for (int16_t& x : before) x = int16_t(half(rng));
+      std::memcpy(img, before.data(), before.size() * sizeof(int16_t));
+      const int u0 = std::uniform_int_distribution<int>(0, w - 1)(rng);
+      const int u1 = std::uniform_int_distribution<int>(u0, w - 1)(rng);
+      const int v0 = std::uniform_int_distribution<int>(0, h - 1)(rng);
+      const int v1 = std::uniform_int_distribution<int>(v0, h - 1)(rng);
+      const int16_t nh = int16_t(half(rng)), fh = trial % 5 == 0 ? raycast_bounds::kEmpty : int16_t(half(rng));
+      const bool aligned = raycast_bounds::four_pixel_aligned(view);
+      aligned_runs += aligned;
+      raycast_bounds::merge_rect(view, u0, u1, v0, v1, nh, fh, aligned);
+      std::vector<int16_t> after(before.size());
+      std::memcpy(after.data(), img, after.size() * sizeof(int16_t));
+      for (int v = 0; v < h; ++v)
+        for (int u = 0; u < w; ++u) {
+          const std::size_t k = 2 * (std::size_t(v) * w + u);
+          const bool in = u >= u0 && u <= u1 && v >= v0 && v <= v1;
+          wrong += after[k] != (in ? std::min(before[k], nh) : before[k]);
+          wrong += after[k + 1] != (in ? std::min(before[k + 1], fh) : before[k + 1]);
+        }
+    }
+  }
+  LONGS_EQUAL(0, wrong);
+  LONGS_EQUAL(2000, aligned_runs);  // the 16-pixel rows, not the 13-pixel ones
 }

@@ -165,23 +165,45 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
   const bool dilate = intr.width <= raycast_bounds::kDilateWidthMax;
   const raycast_bounds::Splatter splat(maps.depth_m, intr, T_cam_world, vs, dilate);
   const int nb = volume.bricks_per_axis();
+  const std::size_t stride[3] = {1, std::size_t(nb), std::size_t(nb) * std::size_t(nb)};
   const auto brick_mask = [&](std::size_t k) -> uint64_t {
     if (!(flags[k] & kBrickSurface)) return 0;
     return masks != nullptr ? masks[k] : ~uint64_t(0);
   };
   // The sensor in voxel-centre grid coordinates (voxel i spans [i, i + 1)).
   const Vec3f cam_g = (T_world_cam.t - volume.origin_m()) / vs;
-  for (std::size_t b = 0; b < bricks; ++b) {
-    if (!(flags[b] & kBrickSurface)) continue;
-    // Without mask storage every block of a surface brick counts; a zero mask means every
-    // observed voxel is positive: no crossing here.
-    const uint64_t m = brick_mask(b);
-    if (m == 0) continue;
-    int bc[3];
-    volume.brick_coords(b, bc[0], bc[1], bc[2]);
+  // Calls visit(b, m, bc, c0) for every surface brick b with a non-zero mask m (a zero mask means
+  // every observed voxel is positive: no crossing here; without mask storage every block of a
+  // surface brick counts), bc its brick coordinates, c0 the sensor-frame centre of its block
+  // (0, 0, 0). Surface bricks are a few per cent of the grid: the flags are read eight at a time.
+  static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "byte k of a flag word is brick b + k");
+  constexpr uint64_t kSurfaceBytes = 0x0101010101010101ull * kBrickSurface;
+  const auto for_each_surface_brick = [&](auto&& visit) {
+    const auto one = [&](std::size_t b) {
+      const uint64_t m = brick_mask(b);
+      if (m == 0) return;
+      int bc[3];
+      volume.brick_coords(b, bc[0], bc[1], bc[2]);
+      visit(b, m, bc,
+            first_block + float(bc[0]) * brick_step[0] + float(bc[1]) * brick_step[1] + float(bc[2]) * brick_step[2]);
+    };
+    std::size_t b0 = 0;
+    for (; b0 + 8 <= bricks; b0 += 8) {
+      uint64_t word;
+      std::memcpy(&word, flags + b0, sizeof word);
+      word &= kSurfaceBytes;  // one bit per byte at most
+      while (word != 0) {
+        one(b0 + std::size_t(__builtin_ctzll(word) >> 3));
+        word &= word - 1;
+      }
+    }
+    for (; b0 < bricks; ++b0) {
+      if (flags[b0] & kBrickSurface) one(b0);
+    }
+  };
+  for_each_surface_brick([&](std::size_t b, uint64_t m, const int* bc, const Vec3f& c0) {
     uint64_t lower[3], upper[3];
     int toward[3];
-    const std::size_t stride[3] = {1, std::size_t(nb), std::size_t(nb) * std::size_t(nb)};
     for (int a = 0; a < 3; ++a) {
       lower[a] = bc[a] > 0 ? brick_mask(b - stride[a]) : 0;
       upper[a] = bc[a] + 1 < nb ? brick_mask(b + stride[a]) : 0;
@@ -190,10 +212,8 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
       const float lo = float(kBrickSide * bc[a]) - 2.0f, hi = float(kBrickSide * (bc[a] + 1)) + 2.0f;
       toward[a] = cam_g[a] < lo ? -1 : (cam_g[a] > hi ? 1 : 0);
     }
-    const raycast_bounds::Sides sides = raycast_bounds::front_back(m, lower, upper, toward);
-    splat.brick(sides, first_block + float(bc[0]) * brick_step[0] + float(bc[1]) * brick_step[1] +
-                           float(bc[2]) * brick_step[2]);
-  }
+    splat.brick(raycast_bounds::front_back(m, lower, upper, toward), c0);
+  });
   if (dilate) raycast_bounds::dilate(maps.depth_m);
   return Status::kOk;
 }

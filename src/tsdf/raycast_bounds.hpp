@@ -5,9 +5,10 @@
 //
 // Storage: no memory of its own. Each pixel's bound is packed into the 4 bytes of that pixel's
 // depth-map float (two int16: the near z and the negated far z, in steps of max_range / 65534,
-// offset by -32768 so that SSE2's signed 16-bit minimum applies), which RayMarcher::start reads
-// before it clears the pixel. Negating the far z makes both halves minima, so merging a block
-// into a pixel, and widening the bounds (dilate), are element-wise minima over int16s.
+// offset by -32768 so that a signed 16-bit minimum applies: SSE2's pminsw, NEON's vmin.s16),
+// which RayMarcher::start reads before it clears the pixel. Negating the far z makes both halves
+// minima, so merging a block into a pixel, and widening the bounds (dilate), are element-wise
+// minima over int16s.
 // Private to src/.
 #pragma once
 
@@ -56,6 +57,25 @@ inline int16_t far_half(int32_t far_q) { return int16_t(32767 - far_q); }
 // has cleared them).
 using alias_i16 = int16_t __attribute__((__may_alias__));
 
+// GCC vector extensions (SSE2 on x86-64, NEON on ARM, scalar code where neither exists), as in
+// row_projection.hpp: four blocks projected at once, eight int16 halves minimised at once.
+namespace lanes {
+typedef float F4 __attribute__((vector_size(16)));
+typedef int32_t I4 __attribute__((vector_size(16)));
+typedef int16_t S8 __attribute__((vector_size(16)));
+inline F4 splat_f(float x) { return F4{x, x, x, x}; }
+inline I4 splat_i(int32_t x) { return I4{x, x, x, x}; }
+inline F4 min_f(F4 a, F4 b) { return a < b ? a : b; }
+inline F4 max_f(F4 a, F4 b) { return a > b ? a : b; }
+inline S8 load8(const alias_i16* p) {
+  S8 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store8(alias_i16* p, S8 v) { std::memcpy(p, &v, sizeof v); }
+inline S8 min8(S8 a, S8 b) { return a < b ? a : b; }
+}  // namespace lanes
+
 //! Sets every pixel of the depth map to "no bound".
 inline void clear(const ImageView<float>& depth) {
   for (int v = 0; v < depth.height; ++v) {
@@ -63,14 +83,55 @@ inline void clear(const ImageView<float>& depth) {
   }
 }
 
+//! True when every row of `depth` starts on 16 bytes and holds whole groups of four pixels: then
+//! merge_rect() uses only 16-byte loads and stores at those boundaries.
+inline bool four_pixel_aligned(const ImageView<float>& depth) {
+  return reinterpret_cast<uintptr_t>(depth.data) % 16 == 0 && depth.stride % 4 == 0 && depth.width % 4 == 0;
+}
+
 //! Merges the halves (near_half / far_half, kEmpty for "none") into pixels [u0, u1] x [v0, v1]
-//! (inclusive, inside the image).
-inline void merge_rect(const ImageView<float>& depth, int u0, int u1, int v0, int v1, int16_t nh, int16_t fh) {
-  for (int v = v0; v <= v1; ++v) {
-    alias_i16* p = reinterpret_cast<alias_i16*>(depth.row(v)) + 2 * u0;
-    for (int u = u0; u <= u1; ++u, p += 2) {
-      p[0] = p[0] < nh ? p[0] : nh;
-      p[1] = p[1] < fh ? p[1] : fh;
+//! (inclusive, inside the image), four pixels per vector minimum.
+//! With `aligned` (four_pixel_aligned()), each row is the aligned groups of four pixels that hold
+//! [u0, u1], the lanes outside it set to kEmpty (a minimum with kEmpty leaves a pixel as it is).
+//! Footprints overlap (~7 blocks per pixel at 1 cm / 640x480): a load of a group some earlier
+//! store wrote only in part cannot be forwarded from the store buffer and stalls, and measured,
+//! unaligned groups made the splat slower than scalar writes despite half the instructions.
+//! Otherwise: unaligned groups, the last four pixels of a row as one overlapping group, and scalar
+//! pixels for rects narrower than four.
+inline void merge_rect(const ImageView<float>& depth, int u0, int u1, int v0, int v1, int16_t nh, int16_t fh,
+                       bool aligned = false) {
+  using namespace lanes;
+  const S8 pair = S8{nh, fh, nh, fh, nh, fh, nh, fh};
+  const int n = u1 - u0 + 1;
+  if (aligned) {
+    const S8 lane = S8{0, 0, 1, 1, 2, 2, 3, 3};
+    const S8 none = S8{kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty};
+    const int g0 = u0 & ~3, g1 = u1 & ~3;  // first and last group
+    const S8 from = lane >= int16_t(u0 - g0), to = lane <= int16_t(u1 - g1);
+    const S8 first = (g0 == g1 ? from & to : from) ? pair : none;
+    const S8 last = to ? pair : none;
+    for (int v = v0; v <= v1; ++v) {
+      alias_i16* p = reinterpret_cast<alias_i16*>(depth.row(v)) + 2 * g0;
+      alias_i16* const end = p + 2 * (g1 - g0);
+      store8(p, min8(load8(p), first));
+      if (p == end) continue;
+      for (p += 8; p < end; p += 8) store8(p, min8(load8(p), pair));
+      store8(end, min8(load8(end), last));
+    }
+  } else if (n >= 4) {
+    for (int v = v0; v <= v1; ++v) {
+      alias_i16* p = reinterpret_cast<alias_i16*>(depth.row(v)) + 2 * u0;
+      alias_i16* last = p + 2 * (n - 4);
+      for (; p < last; p += 8) store8(p, min8(load8(p), pair));
+      store8(last, min8(load8(last), pair));
+    }
+  } else {
+    for (int v = v0; v <= v1; ++v) {
+      alias_i16* p = reinterpret_cast<alias_i16*>(depth.row(v)) + 2 * u0;
+      for (int u = u0; u <= u1; ++u, p += 2) {
+        p[0] = p[0] < nh ? p[0] : nh;
+        p[1] = p[1] < fh ? p[1] : fh;
+      }
     }
   }
 }
@@ -98,40 +159,66 @@ inline constexpr int kDilate = 2;
 inline constexpr int kDilateWidthMax = 1024;
 
 //! Square min filter of half-size kDilate over both halves of every pixel, in place.
+//! Only where something was written: each row's first and last covered pixels are found from its
+//! ends (8 bytes per test: an empty pixel is the byte pattern of kEmpty); the row pass filters
+//! each row between them (plus kDilate), the column pass the box of all of them (plus kDilate).
+//! Everything outside is empty before and after.
 //! \param depth the depth map holding the packed bounds (width <= kDilateWidthMax)
 inline void dilate(const ImageView<float>& depth) {
-  const int w2 = 2 * depth.width, h = depth.height;
+  const int w = depth.width, h = depth.height;
   constexpr int kPad = 2 * kDilate;  // int16s of "empty" on either side of a row copy
+  constexpr uint64_t kEmptyWord = 0x7F7F7F7F7F7F7F7Full;
   // Rows: each output is the minimum of the row's 2 kDilate + 1 pixels around it, in one pass
-  // over a padded copy (every pixel is two int16s: the neighbours are 2 d apart).
+  // over a padded copy of the covered span (every pixel is two int16s: the neighbours are 2 d
+  // apart).
   alias_i16 tmp[2 * kDilateWidthMax + 2 * kPad];
-  for (int k = 0; k < kPad; ++k) tmp[k] = tmp[kPad + w2 + k] = kEmpty;
+  int box_u0 = w, box_u1 = -1, box_v0 = h, box_v1 = -1;
   for (int v = 0; v < h; ++v) {
     alias_i16* row = reinterpret_cast<alias_i16*>(depth.row(v));
-    std::memcpy(tmp + kPad, row, sizeof(int16_t) * std::size_t(w2));
-    for (int k = 0; k < w2; ++k) {
+    const auto empty_pair = [&](int u0) {  // pixels u0, u0 + 1 hold no bound
+      uint64_t word;
+      std::memcpy(&word, row + 2 * u0, sizeof word);
+      return word == kEmptyWord;
+    };
+    int a = 0, b = w - 1;  // first and last pixel that may hold a bound
+    while (a + 1 < w && empty_pair(a)) a += 2;
+    while (b - 1 >= a && empty_pair(b - 1)) b -= 2;
+    if (w >= 2 && a == b && empty_pair(std::min(a, w - 2))) continue;  // a lone pixel left: the pair holds it
+    if (a > b) continue;
+    // [a, b] now holds every covered pixel (the pair tests may leave one empty pixel at an end).
+    box_v0 = std::min(box_v0, v), box_v1 = v;
+    a = std::max(a - kDilate, 0), b = std::min(b + kDilate, w - 1);
+    box_u0 = std::min(box_u0, a), box_u1 = std::max(box_u1, b);
+    const int n2 = 2 * (b - a + 1);
+    for (int k = 0; k < kPad; ++k) tmp[k] = tmp[kPad + n2 + k] = kEmpty;
+    std::memcpy(tmp + kPad, row + 2 * a, sizeof(int16_t) * std::size_t(n2));
+    alias_i16* out = row + 2 * a;
+    for (int k = 0; k < n2; ++k) {
       int16_t m = tmp[kPad + k];
       for (int d = 1; d <= kDilate; ++d) {
         m = m < tmp[kPad + k - 2 * d] ? m : tmp[kPad + k - 2 * d];
         m = m < tmp[kPad + k + 2 * d] ? m : tmp[kPad + k + 2 * d];
       }
-      row[k] = m;
+      out[k] = m;
     }
   }
+  if (box_v1 < 0) return;
   // Columns: row v becomes the minimum of rows v - kDilate .. v + kDilate. The rows above and
   // this one are already being overwritten, so their row-filtered values are kept in a ring;
-  // missing rows (beyond the image) are stood in for by this row's own copy.
+  // rows beyond [v0, v1] (empty, or beyond the image) are stood in for by this row's own copy.
+  const int v0 = std::max(box_v0 - kDilate, 0), v1 = std::min(box_v1 + kDilate, h - 1);
+  const int a2 = 2 * box_u0, n2 = 2 * (box_u1 - box_u0 + 1);
   alias_i16 ring[kDilate + 1][2 * kDilateWidthMax];
-  for (int v = 0; v < h; ++v) {
-    alias_i16* row = reinterpret_cast<alias_i16*>(depth.row(v));
+  for (int v = v0; v <= v1; ++v) {
+    alias_i16* row = reinterpret_cast<alias_i16*>(depth.row(v)) + a2;
     alias_i16* own = ring[v % (kDilate + 1)];
-    std::memcpy(own, row, sizeof(int16_t) * std::size_t(w2));
+    std::memcpy(own, row, sizeof(int16_t) * std::size_t(n2));
     const alias_i16* others[2 * kDilate];
     for (int d = 1; d <= kDilate; ++d) {
-      others[2 * d - 2] = v - d >= 0 ? ring[(v - d) % (kDilate + 1)] : own;
-      others[2 * d - 1] = v + d < h ? reinterpret_cast<const alias_i16*>(depth.row(v + d)) : own;
+      others[2 * d - 2] = v - d >= v0 ? ring[(v - d) % (kDilate + 1)] : own;
+      others[2 * d - 1] = v + d <= v1 ? reinterpret_cast<const alias_i16*>(depth.row(v + d)) + a2 : own;
     }
-    for (int k = 0; k < w2; ++k) {
+    for (int k = 0; k < n2; ++k) {
       int16_t m = own[k];
       for (int i = 0; i < 2 * kDilate; ++i) m = m < others[i][k] ? m : others[i][k];
       row[k] = m;
@@ -196,11 +283,16 @@ class Splatter {
   //! \param intr the sensor
   //! \param T_cam_world maps world points into the sensor frame
   //! \param voxel_m the voxel size
-  //! \param dilate true: blocks whose footprint fits within kDilate pixels of one pixel write only
-  //!        that pixel, and dilate() must run after the last brick; false: whole footprints
+  //! \param dilate true: blocks write their footprints shrunk by kDilate (at least the middle
+  //!        pixel), and dilate() must run after the last brick; false: whole footprints
   Splatter(const ImageView<float>& depth, const PinholeIntrinsics& intr, const Pose& T_cam_world, float voxel_m,
            bool dilate)
-      : depth_(depth), intr_(intr), q_(intr.max_range_m), reach_m_(kReachVoxels * voxel_m), dilate_(dilate) {
+      : depth_(depth),
+        intr_(intr),
+        q_(intr.max_range_m),
+        reach_m_(kReachVoxels * voxel_m),
+        dilate_(dilate),
+        aligned_(four_pixel_aligned(depth)) {
     // Block centres are a lattice: block (i, j, k) of a brick sits at i a + j b + k c from the
     // brick's block (0, 0, 0), a, b, c being 2 voxels along world x, y, z in the sensor frame.
     for (int a = 0; a < 3; ++a) step_[a] = T_cam_world.R.col(a) * (2.0f * voxel_m);
@@ -249,38 +341,84 @@ class Splatter {
   }
 
   // The fast path: the brick's radius around each block's projected centre, written shrunk by
-  // kDilate (dilate() widens it back).
+  // kDilate (dilate() widens it back). Four blocks at a time: the same operations as one block at
+  // a time (same roundings and clamps, lane by lane), so the same pixels and halves; a group of
+  // fewer than four repeats its last block (a repeated minimum changes nothing).
   void centres(const Sides& sides, const Vec3f& c0, float r_u, float r_v) const {
+    using namespace lanes;
     const int w = intr_.width, h = intr_.height;
     const float eps_px = 0.01f;  // rounding of the projection
     // floor(u - r) + 1 and floor(u + r) with the shift of floor_px folded into the offsets.
-    const float off_u0 = intr_.cx - r_u - eps_px + kShift, off_u1 = intr_.cx + r_u + eps_px + kShift;
-    const float off_v0 = intr_.cy - r_v - eps_px + kShift, off_v1 = intr_.cy + r_v + eps_px + kShift;
+    const F4 off_u0 = splat_f(intr_.cx - r_u - eps_px + kShift), off_u1 = splat_f(intr_.cx + r_u + eps_px + kShift);
+    const F4 off_v0 = splat_f(intr_.cy - r_v - eps_px + kShift), off_v1 = splat_f(intr_.cy + r_v + eps_px + kShift);
+    const F4 cx = splat_f(c0.x()), cy = splat_f(c0.y()), cz = splat_f(c0.z());
+    const F4 fx = splat_f(intr_.fx), fy = splat_f(intr_.fy), one = splat_f(1.0f);
+    const F4 px_lo = splat_f(0.0f), px_hi = splat_f(16384.0f);
+    const F4 reach = splat_f(reach_m_), inv_unit = splat_f(q_.inv_unit), top = splat_f(float(Quant::kTop));
+    const I4 zero = splat_i(0), empty = splat_i(kEmpty);
+    const int16_t w1 = int16_t(w - 1), h1 = int16_t(h - 1);
+    const S8 zero8 = S8{0, 0, 0, 0, 0, 0, 0, 0}, last8 = S8{w1, w1, w1, w1, h1, h1, h1, h1};
+    const S8 span8 = zero8 + int16_t(2 * kDilate), dil8 = zero8 + int16_t(kDilate);
     uint64_t mask = sides.front | sides.back;
     while (mask != 0) {
-      const int bit = __builtin_ctzll(mask);
-      mask &= mask - 1;
-      const float z = c0.z() + oz_[bit];
-      const float inv = 1.0f / z;
-      const float pu = intr_.fx * (c0.x() + ox_[bit]) * inv, pv = intr_.fy * (c0.y() + oy_[bit]) * inv;
+      int bit[4];
+      int n = 0;
+      for (; n < 4 && mask != 0; ++n) {
+        bit[n] = __builtin_ctzll(mask);
+        mask &= mask - 1;
+      }
+      for (int l = n; l < 4; ++l) bit[l] = bit[n - 1];
+      const F4 z = cz + F4{oz_[bit[0]], oz_[bit[1]], oz_[bit[2]], oz_[bit[3]]};
+      const F4 inv = one / z;
+      const F4 pu = fx * (cx + F4{ox_[bit[0]], ox_[bit[1]], ox_[bit[2]], ox_[bit[3]]}) * inv;
+      const F4 pv = fy * (cy + F4{oy_[bit[0]], oy_[bit[1]], oy_[bit[2]], oy_[bit[3]]}) * inv;
       // pu, pv are huge for blocks far off the axis: the clamp keeps the conversion defined (a
       // clamped end lies outside any image, and the test below drops the block).
-      int iu0 = int(clamp_px(pu + off_u0)) - (kIShift - 1), iu1 = int(clamp_px(pu + off_u1)) - kIShift;
-      int iv0 = int(clamp_px(pv + off_v0)) - (kIShift - 1), iv1 = int(clamp_px(pv + off_v1)) - kIShift;
-      if (iu1 < 0 || iv1 < 0 || iu0 >= w || iv0 >= h) continue;
-      const int16_t nh = (sides.front >> bit) & 1u ? near_half(q_.floor_q(z - reach_m_)) : kEmpty;
-      const int16_t fh = (sides.back >> bit) & 1u ? far_half(q_.ceil_q(z + reach_m_)) : kEmpty;
-      shrink(iu0, iu1);
-      shrink(iv0, iv1);
-      // r <= kDilate + 1 leaves a span of at most 2 (r + eps) = 6 pixel steps, i.e. at most 3 pixels
-      // per axis after the shrink: bounded loops with an early exit (no vector set-up for such
-      // short rows; the bound of 4 is slack).
-      const int u0 = clamp(iu0, w), u1 = clamp(iu1, w), v0 = clamp(iv0, h), v1 = clamp(iv1, h);
-      for (int j = 0; j < 4 && v0 + j <= v1; ++j) {
-        alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(v0 + j)) + 2 * u0;
-        for (int i = 0; i < 4 && u0 + i <= u1; ++i, p += 2) {
-          p[0] = p[0] < nh ? p[0] : nh;
-          p[1] = p[1] < fh ? p[1] : fh;
+      const I4 iu0 = __builtin_convertvector(min_f(max_f(pu + off_u0, px_lo), px_hi), I4) - (kIShift - 1);
+      const I4 iu1 = __builtin_convertvector(min_f(max_f(pu + off_u1, px_lo), px_hi), I4) - kIShift;
+      const I4 iv0 = __builtin_convertvector(min_f(max_f(pv + off_v0, px_lo), px_hi), I4) - (kIShift - 1);
+      const I4 iv1 = __builtin_convertvector(min_f(max_f(pv + off_v1, px_lo), px_hi), I4) - kIShift;
+      // The pixel ends lie in [-4096, 12288]: as int16 (u in lanes 0-3, v in 4-7) the shrink and
+      // the clamps below are 8 lanes of single minima and maxima.
+      S8 lo = __builtin_convertvector(__builtin_shufflevector(iu0, iv0, 0, 1, 2, 3, 4, 5, 6, 7), S8);
+      S8 hi = __builtin_convertvector(__builtin_shufflevector(iu1, iv1, 0, 1, 2, 3, 4, 5, 6, 7), S8);
+      const S8 in = (hi >= zero8) & (lo <= last8);  // lane l and l + 4 both: the block is in the image
+      // Quant::floor_q / ceil_q lane-wise: clamped into [0, kTop], truncated, and rounded up
+      // where the truncation lost a fraction.
+      const F4 qn = min_f(max_f((z - reach) * inv_unit, px_lo), top);
+      const F4 qf = min_f(max_f((z + reach) * inv_unit, px_lo), top);
+      const I4 tf = __builtin_convertvector(qf, I4);
+      const I4 near_q = __builtin_convertvector(qn, I4);
+      const I4 far_q = tf - (__builtin_convertvector(tf, F4) < qf);  // true lanes are -1
+      const I4 is_front = I4{int32_t(sides.front >> bit[0]), int32_t(sides.front >> bit[1]),
+                             int32_t(sides.front >> bit[2]), int32_t(sides.front >> bit[3])} & 1;
+      const I4 is_back = I4{int32_t(sides.back >> bit[0]), int32_t(sides.back >> bit[1]),
+                            int32_t(sides.back >> bit[2]), int32_t(sides.back >> bit[3])} & 1;
+      const I4 nh = is_front != zero ? near_q - 32768 : empty;
+      const I4 fh = is_back != zero ? 32767 - far_q : empty;
+      // shrink() and clamp() lane-wise.
+      const S8 mid = (lo + hi) >> 1;
+      const S8 wide = hi - lo >= span8;
+      lo = wide ? lo + dil8 : mid;
+      hi = wide ? hi - dil8 : mid;
+      lo = lo > last8 ? last8 : lo;
+      lo = lo < zero8 ? zero8 : lo;
+      hi = hi > last8 ? last8 : hi;
+      hi = hi < zero8 ? zero8 : hi;
+      for (int l = 0; l < n; ++l) {
+        if ((in[l] & in[l + 4]) == 0) continue;
+        const int16_t nh_l = int16_t(nh[l]), fh_l = int16_t(fh[l]);
+        const int u0 = lo[l], u1 = hi[l], v0 = lo[l + 4], v1 = hi[l + 4];
+        // r <= kDilate + 1 leaves a span of at most 2 (r + eps) = 6 pixel steps, i.e. at most 3
+        // pixels per axis after the shrink: bounded loops with an early exit (no vector set-up for
+        // such short rows, measured: merge_rect's one masked vector per row costs 12 % more here;
+        // the bound of 4 is slack).
+        for (int j = 0; j < 4 && v0 + j <= v1; ++j) {
+          alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(v0 + j)) + 2 * u0;
+          for (int i = 0; i < 4 && u0 + i <= u1; ++i, p += 2) {
+            p[0] = p[0] < nh_l ? p[0] : nh_l;
+            p[1] = p[1] < fh_l ? p[1] : fh_l;
+          }
         }
       }
     }
@@ -288,10 +426,10 @@ class Splatter {
 
   static constexpr float kShift = 4096.0f;
   static constexpr int kIShift = 4096;
-  static float clamp_px(float x) { return std::min(std::max(x, 0.0f), 16384.0f); }
 
   // The general path: each block's whole footprint (near the sensor, or without dilation).
   void footprints(const Sides& sides, const Vec3f& c0) const {
+    const int d = dilate_ ? kDilate : 0;  // dilate() widens every written pixel by d
     const float eps_px = 0.01f;  // rounding of the projection
     uint64_t mask = sides.front | sides.back;
     while (mask != 0) {
@@ -303,7 +441,7 @@ class Splatter {
       const int16_t nh = (sides.front >> bit) & 1u ? near_half(q_.floor_q(z_lo)) : kEmpty;
       const int16_t fh = (sides.back >> bit) & 1u ? far_half(q_.ceil_q(z_hi)) : kEmpty;
       if (!(z_lo > 1e-3f)) {  // straddles the sensor plane: may cover any pixel
-        merge_rect(depth_, 0, intr_.width - 1, 0, intr_.height - 1, nh, fh);
+        merge_rect(depth_, 0, intr_.width - 1, 0, intr_.height - 1, nh, fh, aligned_);
         continue;
       }
       // The sphere's points have x in [c.x - r, c.x + r] and z in [z_lo, z_hi]: x / z lies
@@ -319,27 +457,26 @@ class Splatter {
       int iu0 = -floor_px(eps_px - u_lo), iu1 = floor_px(u_hi + eps_px);
       int iv0 = -floor_px(eps_px - v_lo), iv1 = floor_px(v_hi + eps_px);
       if (iu1 < 0 || iv1 < 0 || iu0 >= intr_.width || iv0 >= intr_.height) continue;
-      if (dilate_) {
-        // dilate() widens every written pixel by kDilate: write the footprint shrunk by that much
-        // (at least its middle pixel), so that the widened result is the footprint again.
-        shrink(iu0, iu1);
-        shrink(iv0, iv1);
-      }
-      merge_rect(depth_, clamp(iu0, intr_.width), clamp(iu1, intr_.width), clamp(iv0, intr_.height),
-                 clamp(iv1, intr_.height), nh, fh);
+      // Write the footprint shrunk by d (at least its middle pixel), so that the widened result is
+      // the footprint again.
+      shrink(iu0, iu1, d);
+      shrink(iv0, iv1, d);
+      iu0 = clamp(iu0, intr_.width), iu1 = clamp(iu1, intr_.width);
+      iv0 = clamp(iv0, intr_.height), iv1 = clamp(iv1, intr_.height);
+      merge_rect(depth_, iu0, iu1, iv0, iv1, nh, fh, aligned_);
     }
   }
 
-  static void shrink(int& lo, int& hi) {
-    if (hi - lo >= 2 * kDilate) {
-      lo += kDilate;
-      hi -= kDilate;
+  static void shrink(int& lo, int& hi, int d) {
+    if (hi - lo >= 2 * d) {
+      lo += d;
+      hi -= d;
     } else {
       lo = hi = (lo + hi) >> 1;
     }
   }
-  // Clamping a range's ends into the image keeps every image pixel within kDilate of it that was
-  // within kDilate of the range.
+  // Clamping a range's ends into the image keeps every image pixel within d of it that was
+  // within d of the range.
   static int clamp(int i, int size) { return i < 0 ? 0 : (i >= size ? size - 1 : i); }
 
   // floor() of a pixel coordinate without a libm call: clamped far outside any image (the result
@@ -354,6 +491,7 @@ class Splatter {
   const Quant q_;
   const float reach_m_;
   const bool dilate_;
+  const bool aligned_;  // merge_rect() may use aligned groups of four pixels
   Vec3f step_[3];
   float ox_[64], oy_[64], oz_[64];  // block (bit) centre minus block 0's, sensor frame
 };
