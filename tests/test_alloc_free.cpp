@@ -63,7 +63,7 @@ static void run_steady_state() {
       const DepthFrame f{{depth[std::size_t(i)].data(), cam.width, cam.height},
                          {colour[std::size_t(i)].data(), cam.width, cam.height}};
       integrate<Real>(vol, cam, norms, f, poses[std::size_t(i)], scratch);
-      raycast<Real>(vol, cam, poses[std::size_t(i)], maps, scratch);
+      raycast<Real>(vol, cam, poses[std::size_t(i)], maps);
     }
   std::size_t count = 0;
   extract_points(vol, g_points, sizeof(g_points) / sizeof(g_points[0]), count);

@@ -27,7 +27,6 @@ struct BBuffers {
   float depth_m[kBW * kBH];
   Vec3f vertex[kBW * kBH], normal[kBW * kBH];
   uint16_t frame[kBW * kBH];
-  SensorBuffers<Real> sensor;
 };
 BBuffers<float> g_b;
 BBuffers<Fixed> g_b_q;
@@ -96,10 +95,9 @@ Outcome run_pair(const Scene& scene, const Pose& guess) {
   maps.depth_m = ImageView<float>(g_b.depth_m, kBW, kBH);
   maps.vertex = ImageView<Vec3f>(g_b.vertex, kBW, kBH);
   maps.normal = ImageView<Vec3f>(g_b.normal, kBW, kBH);
-  FrameScratch scratch = g_b.sensor.scratch();
   const IcpWorkspace<Real> ws = IcpWorkspace<Real>::bind(g_b.rows, sizeof(g_b.rows));
   Outcome o;
-  o.status = calibrate_pair<Real>(rig.volume, T_world_a, guess, cb, pyr, maps, scratch, ws, PairCalibrationParams(), o.r);
+  o.status = calibrate_pair<Real>(rig.volume, T_world_a, guess, cb, pyr, maps, ws, PairCalibrationParams(), o.r);
   return o;
 }
 }  // namespace
@@ -191,7 +189,7 @@ TEST(PairCalibration, AlignsTwoSpaces) {
   Pose guess = T_model_other;
   guess.t += Vec3f(0.012f, 0.008f, -0.01f);
   PairCalibrationResult r;
-  CHECK(align_spaces<float>(rig.volume, other, rig.cam, poses[0], guess, rig.pyramid, rig.maps, om, rig.scratch, os,
+  CHECK(align_spaces<float>(rig.volume, other, rig.cam, poses[0], guess, rig.pyramid, rig.maps, om,
                             ImageView<uint16_t>(g_o_raw, kRigW, kRigH), rig.ws, PairCalibrationParams(), 2, r) ==
         Status::kOk);
   float dt, deg;

@@ -195,7 +195,7 @@ TEST(FusionColour, TrustScalesTheWeight) {
     if (trust_far != nullptr) f2.trust = ImageView<const uint8_t>(trust_far->data(), 160, 120);
     if (near_first) CHECK(integrate<float>(vol, c, norms, f1, Pose(), s) == Status::kOk);
     CHECK(integrate<float>(vol, c, norms, f2, Pose(), s) == Status::kOk);
-    CHECK(raycast<float>(vol, c, Pose(), maps, s) == Status::kOk);
+    CHECK(raycast<float>(vol, c, Pose(), maps) == Status::kOk);
     return maps.depth_m.at(80, 60);
   };
   const float z_equal = fused_z(nullptr, true);

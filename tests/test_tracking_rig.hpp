@@ -82,7 +82,7 @@ struct Rig {
     using namespace edgefuse;
     for (std::size_t i = 0; i < depth.size(); ++i) buf.frame[i] = depth[i];
     const ImageView<const uint16_t> d(buf.frame, cam.width, cam.height);
-    Status s = raycast<Real>(volume, cam, tracker.raycast_pose(), maps, scratch);
+    Status s = raycast<Real>(volume, cam, tracker.raycast_pose(), maps);
     if (s == Status::kOk) s = build_pyramid<Real>(d, pyramid_params, pyramid);
     if (s == Status::kOk) s = tracker.track<Real>(pyramid, maps, cam, ws, r, runner);
     if (s == Status::kOk && r.push) s = integrate<Real>(volume, cam, norms, DepthFrame{d, {}}, r.T_world_cam, scratch);

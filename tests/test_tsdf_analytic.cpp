@@ -161,7 +161,7 @@ TEST(TsdfAnalytic, SphereAndPlaneRaycastMatchesTruthWithinATenthOfAVoxel) {
   Maps maps;
   for (const Pose& T : {poses[0], poses[3], look_at(Vec3f(0.05f, -0.03f, 0.02f), Vec3f(0.0f, 0.0f, 0.8f))}) {
     const RaycastMaps m = maps.views(cam);
-    CHECK(raycast<float>(vol, cam, T, m, g_scratch) == Status::kOk);
+    CHECK(raycast<float>(vol, cam, T, m) == Status::kOk);
     Stats s = compare_depth(scene, cam, T, maps.depth, vol);
     std::printf("\n  sphere+plane: %d compared, %d hit, median %.3f mm, p99 %.3f mm, max %.3f mm (45-60 deg: %.3f mm)",
                 s.compared, s.hits, 1e3 * s.percentile(0.5f), 1e3 * s.percentile(0.99f), 1e3 * s.max_err,
@@ -181,7 +181,7 @@ TEST(TsdfAnalytic, TiltedPlaneNormalsAndVerticesAgreeWithTheGeometry) {
   fuse<float>(vol, scene, cam, poses);
   Maps maps;
   const RaycastMaps m = maps.views(cam);
-  CHECK(raycast<float>(vol, cam, poses[1], m, g_scratch) == Status::kOk);
+  CHECK(raycast<float>(vol, cam, poses[1], m) == Status::kOk);
   Stats s = compare_depth(scene, cam, poses[1], maps.depth, vol);
   CHECK(s.compared > 20000);
   CHECK(s.hits >= s.compared * 99 / 100);
@@ -209,7 +209,7 @@ TEST(TsdfAnalytic, BoxFacesAreRecoveredWithinATenthOfAVoxel) {
   fuse<float>(vol, scene, cam, poses);
   Maps maps;
   const RaycastMaps m = maps.views(cam);
-  CHECK(raycast<float>(vol, cam, poses[2], m, g_scratch) == Status::kOk);
+  CHECK(raycast<float>(vol, cam, poses[2], m) == Status::kOk);
   Stats s = compare_depth(scene, cam, poses[2], maps.depth, vol);
   std::printf("\n  box: %d compared, %d hit, median %.3f mm, p95 %.3f mm, p99 %.3f mm, max %.3f mm", s.compared, s.hits,
               1e3 * s.percentile(0.5f), 1e3 * s.percentile(0.95f), 1e3 * s.percentile(0.99f),
@@ -227,7 +227,7 @@ TEST(TsdfAnalytic, ColourIsCarriedFromTheImageToTheRaycast) {
   fuse<float>(vol, scene, cam, poses);
   Maps maps;
   const RaycastMaps m = maps.views(cam);
-  CHECK(raycast<float>(vol, cam, poses[0], m, g_scratch) == Status::kOk);
+  CHECK(raycast<float>(vol, cam, poses[0], m) == Status::kOk);
   const std::size_t centre = std::size_t(cam.height / 2) * cam.width + cam.width / 2;
   CHECK(maps.depth[centre] > 0);
   CHECK_EQUAL(255, maps.colour[centre].a);
@@ -247,7 +247,7 @@ TEST(TsdfAnalytic, FrustumCullingSkipsBricksTheSensorCannotSee) {
 TEST(TsdfAnalytic, EmptySpaceGivesNoHits) {
   Maps maps;
   const RaycastMaps m = maps.views(cam);
-  CHECK(raycast<float>(vol, cam, Pose::identity(), m, g_scratch) == Status::kOk);
+  CHECK(raycast<float>(vol, cam, Pose::identity(), m) == Status::kOk);
   for (float d : maps.depth) CHECK_EQUAL(0.0f, d);
 }
 
@@ -265,7 +265,7 @@ TEST(TsdfAnalytic, MismatchedInputsAreRefused) {
   Maps maps;
   RaycastMaps m = maps.views(cam);
   m.depth_m.width = 10;
-  CHECK(raycast<float>(vol, cam, Pose{}, m, g_scratch) == Status::kInvalidArgument);
+  CHECK(raycast<float>(vol, cam, Pose{}, m) == Status::kInvalidArgument);
   TsdfVolume other;
   CHECK(other.init(g_storage_b.view(), kDim + 8, Vec3f::Zero(), TsdfParams::defaults_for(kVoxel, 4 * kVoxel)) ==
         Status::kCapacityExceeded);
@@ -283,8 +283,8 @@ TEST(TsdfAnalytic, FixedPointRaycastIsWithinAQuarterVoxelOfFloat) {
   fuse<Fixed>(fixed_vol, scene, cam, poses);
   Maps a, b;
   const RaycastMaps ma = a.views(cam), mb = b.views(cam);
-  CHECK(raycast<float>(vol, cam, poses[4], ma, g_scratch) == Status::kOk);
-  CHECK(raycast<Fixed>(fixed_vol, cam, poses[4], mb, g_scratch) == Status::kOk);
+  CHECK(raycast<float>(vol, cam, poses[4], ma) == Status::kOk);
+  CHECK(raycast<Fixed>(fixed_vol, cam, poses[4], mb) == Status::kOk);
   // Silhouette and grazing pixels (the truth changes primitive nearby, or the surface is seen at
   // more than 60 degrees) may hit either surface depending on the last bit: left out.
   std::vector<uint16_t> truth;
@@ -362,8 +362,8 @@ TEST(TsdfAnalytic, BlockMasksMarkTheBlocksAtOrBehindTheSurfaceAndLeaveTheRaycast
   // plane depending on where its march starts, with or without masks alike; those pixels are left out.
   Maps with, without;
   for (const Pose& T : {poses[1], look_at(Vec3f(0.05f, -0.03f, 0.02f), Vec3f(0.0f, 0.0f, 0.8f))}) {
-    CHECK(raycast<float>(vol, cam, T, with.views(cam), g_scratch) == Status::kOk);
-    CHECK(raycast<float>(plain, cam, T, without.views(cam), g_scratch) == Status::kOk);
+    CHECK(raycast<float>(vol, cam, T, with.views(cam)) == Status::kOk);
+    CHECK(raycast<float>(plain, cam, T, without.views(cam)) == Status::kOk);
     Stats a = compare_depth(scene, cam, T, with.depth, vol);
     Stats b = compare_depth(scene, cam, T, without.depth, plain);
     std::printf("\n  with / without block masks: %d / %d of %d hit, max error %.3f / %.3f mm", a.hits, b.hits, a.compared,
@@ -389,7 +389,7 @@ TEST(TsdfAnalytic, PerPixelBoundsHoldEveryTrueSurfaceAndStartNearIt) {
   for (const Pose& T : {poses[1], look_at(Vec3f(0.05f, -0.03f, 0.02f), Vec3f(0.0f, 0.0f, 0.8f))}) {
     Maps m;
     const RaycastMaps views = m.views(cam);
-    CHECK(prepare_raycast(vol, cam, T, views, g_scratch) == Status::kOk);
+    CHECK(prepare_raycast(vol, cam, T, views) == Status::kOk);
     std::vector<uint16_t> truth;
     std::vector<float> cosi;
     std::vector<int> item;

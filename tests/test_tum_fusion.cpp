@@ -72,7 +72,7 @@ TEST(TumFusion, RaycastOfTheFusedSpaceMatchesAFramesDepth) {
   std::vector<float> model(std::size_t(cam.width) * cam.height);
   RaycastMaps maps;
   maps.depth_m = ImageView<float>(model.data(), cam.width, cam.height);
-  CHECK(raycast<real_t>(vol, cam, probe.T_world_cam, maps, scratch) == Status::kOk);
+  CHECK(raycast<real_t>(vol, cam, probe.T_world_cam, maps) == Status::kOk);
 
   std::vector<float> diff;
   std::size_t measured = 0;

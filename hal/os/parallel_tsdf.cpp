@@ -68,8 +68,8 @@ Status integrate_parallel(WorkerPool& pool, TsdfVolume& volume, const PinholeInt
 
 template <class Real>
 Status raycast_parallel(WorkerPool& pool, const TsdfVolume& volume, const PinholeIntrinsics& intr,
-                        const Pose& T_world_cam, const RaycastMaps& maps, FrameScratch& scratch) {
-  const Status s = prepare_raycast(volume, intr, T_world_cam, maps, scratch);
+                        const Pose& T_world_cam, const RaycastMaps& maps) {
+  const Status s = prepare_raycast(volume, intr, T_world_cam, maps);
   if (s != Status::kOk) return s;
   RaycastContext<Real> c;
   c.volume = &volume;
@@ -85,8 +85,8 @@ template Status integrate_parallel<float>(WorkerPool&, TsdfVolume&, const Pinhol
 template Status integrate_parallel<Fixed>(WorkerPool&, TsdfVolume&, const PinholeIntrinsics&, ImageView<const Fixed>,
                                           const DepthFrame&, const Pose&, FrameScratch&, float);
 template Status raycast_parallel<float>(WorkerPool&, const TsdfVolume&, const PinholeIntrinsics&, const Pose&,
-                                        const RaycastMaps&, FrameScratch&);
+                                        const RaycastMaps&);
 template Status raycast_parallel<Fixed>(WorkerPool&, const TsdfVolume&, const PinholeIntrinsics&, const Pose&,
-                                        const RaycastMaps&, FrameScratch&);
+                                        const RaycastMaps&);
 
 }  // namespace edgefuse

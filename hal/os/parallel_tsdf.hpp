@@ -17,6 +17,6 @@ Status integrate_parallel(WorkerPool& pool, TsdfVolume& volume, const PinholeInt
 //! raycast() on all workers of `pool`.
 template <class Real>
 Status raycast_parallel(WorkerPool& pool, const TsdfVolume& volume, const PinholeIntrinsics& intr,
-                        const Pose& T_world_cam, const RaycastMaps& maps, FrameScratch& scratch);
+                        const Pose& T_world_cam, const RaycastMaps& maps);
 
 }  // namespace edgefuse

@@ -68,7 +68,7 @@ bool PairCalibrationParams::valid() const {
 template <class Real>
 Status calibrate_pair(const TsdfVolume& volume, const Pose& T_world_a, const Pose& T_a_b_guess,
                       const PinholeIntrinsics& intr_b, const FramePyramid<Real>& frame_b, const RaycastMaps& maps_b,
-                      FrameScratch& scratch_b, const IcpWorkspace<Real>& ws, const PairCalibrationParams& params,
+                      const IcpWorkspace<Real>& ws, const PairCalibrationParams& params,
                       PairCalibrationResult& out, const RowRunner* runner) {
   out = PairCalibrationResult{};
   out.T_a_b = T_a_b_guess;
@@ -84,7 +84,7 @@ Status calibrate_pair(const TsdfVolume& volume, const Pose& T_world_a, const Pos
     icp.observability_tiles = params.observability_tiles;
     icp.min_correspondences = params.min_correspondences / 4 > 6 ? params.min_correspondences / 4 : 6;
     for (int round = 0; round < params.rounds_per_stage; ++round) {
-      Status s = raycast<Real>(volume, intr_b, T_world_a * T, maps_b, scratch_b);
+      Status s = raycast<Real>(volume, intr_b, T_world_a * T, maps_b);
       if (s != Status::kOk) return s;
       Pose T_model_frame;
       s = icp_align<Real>(frame_b, maps_b, intr_b, Pose::identity(), icp, ws, T_model_frame, stats, runner);
@@ -96,7 +96,7 @@ Status calibrate_pair(const TsdfVolume& volume, const Pose& T_world_a, const Pos
   }
   out.T_a_b = T;
   // Final evaluation at the estimate.
-  Status s = raycast<Real>(volume, intr_b, T_world_a * T, maps_b, scratch_b);
+  Status s = raycast<Real>(volume, intr_b, T_world_a * T, maps_b);
   if (s != Status::kOk) return s;
   ViewObservability view;
   s = view_observability(maps_b, intr_b.width / params.observability_tiles > 0 ? intr_b.width / params.observability_tiles : 1,
@@ -161,7 +161,7 @@ Status calibrate_pair(const TsdfVolume& volume, const Pose& T_world_a, const Pos
 
 #define EDGEFUSE_INSTANTIATE(Real)                                                                                 \
   template Status calibrate_pair<Real>(const TsdfVolume&, const Pose&, const Pose&, const PinholeIntrinsics&,     \
-                                       const FramePyramid<Real>&, const RaycastMaps&, FrameScratch&,             \
+                                       const FramePyramid<Real>&, const RaycastMaps&,                            \
                                        const IcpWorkspace<Real>&, const PairCalibrationParams&,                  \
                                        PairCalibrationResult&, const RowRunner*);
 EDGEFUSE_INSTANTIATE(float)

@@ -11,7 +11,7 @@ Status paint_colour(TsdfVolume& volume, const PinholeIntrinsics& intr, ImageView
   if (!volume.has_colour() || colour.empty()) return Status::kInvalidArgument;
   if (depth_scratch.empty() || depth_scratch.width != intr.width || depth_scratch.height != intr.height)
     return Status::kInvalidArgument;
-  Status s = raycast<Real>(volume, intr, T_world_cam, maps, scratch);
+  Status s = raycast<Real>(volume, intr, T_world_cam, maps);
   if (s != Status::kOk) return s;
   // The model's z-depth as the frame's raw depth (rounded to the sensor's depth steps).
   for (int v = 0; v < intr.height; ++v)

@@ -139,7 +139,7 @@ Real brick_exit(const RayFrame<Real>& f, const RayDir<Real>& r, const int cell[3
 }  // namespace
 
 Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
-                       const RaycastMaps& maps, FrameScratch& scratch) {
+                       const RaycastMaps& maps) {
   if (!volume.initialised()) return Status::kNotInitialised;
   if (intr.validate() != Status::kOk) return Status::kInvalidArgument;
   if (maps.depth_m.width != intr.width || maps.depth_m.height != intr.height || maps.depth_m.data == nullptr)
@@ -148,7 +148,6 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
       (!maps.normal.empty() && (maps.normal.width != intr.width || maps.normal.height != intr.height)) ||
       (!maps.colour.empty() && (maps.colour.width != intr.width || maps.colour.height != intr.height)))
     return Status::kInvalidArgument;
-  if (!scratch.fits(intr.width, intr.height)) return Status::kCapacityExceeded;
   if (volume.dim() > kRaycastDimMax) return Status::kCapacityExceeded;
 
   // The bounds live in the depth map itself (raycast_bounds.hpp): no tiles of the scratch.
@@ -674,8 +673,8 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
 
 template <class Real>
 Status raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
-               const RaycastMaps& maps, FrameScratch& scratch) {
-  const Status s = prepare_raycast(volume, intr, T_world_cam, maps, scratch);
+               const RaycastMaps& maps) {
+  const Status s = prepare_raycast(volume, intr, T_world_cam, maps);
   if (s != Status::kOk) return s;
   raycast_rows<Real>(volume, intr, T_world_cam, maps, 0, intr.height);
   return Status::kOk;
@@ -685,8 +684,7 @@ Status raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Po
   template bool sample_tsdf<Real>(const TsdfVolume&, const Vec3f&, float&);                                       \
   template void raycast_rows<Real>(const TsdfVolume&, const PinholeIntrinsics&, const Pose&, const RaycastMaps&, int, \
                                    int);                                                                          \
-  template Status raycast<Real>(const TsdfVolume&, const PinholeIntrinsics&, const Pose&, const RaycastMaps&,     \
-                                FrameScratch&);
+  template Status raycast<Real>(const TsdfVolume&, const PinholeIntrinsics&, const Pose&, const RaycastMaps&);
 EDGEFUSE_INSTANTIATE(float)
 EDGEFUSE_INSTANTIATE(Fixed)
 #undef EDGEFUSE_INSTANTIATE

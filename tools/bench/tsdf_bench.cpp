@@ -148,7 +148,7 @@ int main(int argc, char** argv) {
     integrate_ms += thread_cpu_ms() - t0;
     if (!cast) continue;
     t0 = thread_cpu_ms();
-    raycast<real_t>(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps, core.scratch);
+    raycast<real_t>(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps);
     raycast_fuse_ms += thread_cpu_ms() - t0;
   }
   // A checksum of every voxel (distance, weight, colour) and brick flag: equal checksums show that
@@ -174,7 +174,7 @@ int main(int argc, char** argv) {
   for (int r = 0; cast && r < reps; ++r)
     for (std::size_t i = 0; i < n; ++i) {
       double t0 = thread_cpu_ms();
-      raycast<real_t>(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps, core.scratch);
+      raycast<real_t>(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps);
       raycast_ms += thread_cpu_ms() - t0;
       ++casts;
       if (r == 0) dump.add(core.maps, pixels);
@@ -194,7 +194,7 @@ int main(int argc, char** argv) {
       hits = 0;  // of the raycast (the prepare_raycast timed below leaves its bounds in the depth map)
       for (std::size_t k = 0; k < pixels; ++k) hits += core.maps.depth_m.data[k] > 0.0f;
       t0 = thread_cpu_ms();
-      prepare_raycast(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps, core.scratch);
+      prepare_raycast(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps);
       prepare_ms += thread_cpu_ms() - t0;
     }
   std::printf("%s %dx%d, %d^3 x %.4g m (%s), %zu frames: integrate %.2f ms/frame thread CPU", seq.root.c_str(), W, H,

@@ -129,7 +129,7 @@ int calibrate_maps(const Args& args, const BoardCapacities& board, FuseSettings 
   FramePyramid<real_t> pyramid;
   if (core.buffers.pyramid<real_t>(1, vi, pyramid) != Status::kOk) return fail("pyramid does not fit");
   PairCalibrationResult r;
-  if (align_spaces<real_t>(space[0], space[1], vi, Pose::identity(), guess, pyramid, a.maps, om, a.scratch, b.scratch,
+  if (align_spaces<real_t>(space[0], space[1], vi, Pose::identity(), guess, pyramid, a.maps, om,
                            ImageView<uint16_t>(spare.data, vi.width, vi.height), core.buffers.icp_workspace<real_t>(1),
                            PairCalibrationParams(), 3, r) != Status::kOk)
     return fail("alignment failed");

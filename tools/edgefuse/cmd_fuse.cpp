@@ -136,7 +136,7 @@ int cmd_fuse(int argc, char** argv) {
     Status s = integrate_parallel<real_t>(pool, core.volume, seq.intr, core.ray_norms, frame, T, core.scratch);
     const double ti = ms_since(t0);
     t0 = std::chrono::steady_clock::now();
-    if (s == Status::kOk) s = raycast_parallel<real_t>(pool, core.volume, seq.intr, T, core.maps, core.scratch);
+    if (s == Status::kOk) s = raycast_parallel<real_t>(pool, core.volume, seq.intr, T, core.maps);
     const double tr = ms_since(t0);
     if (s != Status::kOk) {
       std::fprintf(stderr, "edgefuse fuse: frame %zu (%s): %s\n", i, f.depth_path.c_str(), to_string(s));

@@ -382,7 +382,7 @@ int cmd_localize(int argc, char** argv) {
                                                 : ImageView<const uint16_t>(amplitude.data(), seq.intr.width, seq.intr.height);
       Status s = filters.run(staged, amp, filter_scratch, staged);
       if (s == Status::kOk && i > 0)
-        s = raycast_parallel<real_t>(pool, core.volume, seq.intr, tracker.raycast_pose(), core.maps, core.scratch);
+        s = raycast_parallel<real_t>(pool, core.volume, seq.intr, tracker.raycast_pose(), core.maps);
       TrackResult r;
       if (s == Status::kOk) s = build_pyramid<real_t>(frame.depth, PyramidParams(), pyramid);
       if (s == Status::kOk) s = tracker.track<real_t>(pyramid, core.maps, seq.intr, icp_ws, r, nullptr);

@@ -167,7 +167,7 @@ int cmd_track(int argc, char** argv) {
     cpu[1] = cpu_ms();
     t0 = Clock::now();
     if (s == Status::kOk && i > 0)
-      s = raycast_parallel<real_t>(pool, core.volume, intr, tracker.raycast_pose(), model, core.scratch);
+      s = raycast_parallel<real_t>(pool, core.volume, intr, tracker.raycast_pose(), model);
     const double t_raycast = ms_since(t0);
     cpu[2] = cpu_ms();
     t0 = Clock::now();

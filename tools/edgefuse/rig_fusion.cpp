@@ -196,7 +196,7 @@ bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, Fr
     bool push = true;
     if (track_a != nullptr) {
       TrackResult r;
-      Status s = i > 0 ? raycast<real_t>(volume, a.seq.intr, tracker.raycast_pose(), a.maps, a.scratch) : Status::kOk;
+      Status s = i > 0 ? raycast<real_t>(volume, a.seq.intr, tracker.raycast_pose(), a.maps) : Status::kOk;
       if (s == Status::kOk) s = build_pyramid<real_t>(f.depth, PyramidParams(), *track_a->pyramid);
       if (s == Status::kOk) s = tracker.track<real_t>(*track_a->pyramid, a.maps, a.seq.intr, track_a->ws, r);
       if (s != Status::kOk) {
@@ -231,7 +231,7 @@ bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, Fr
       return false;
     }
     PairCalibrationResult r;
-    if (calibrate_pair<real_t>(volume, pose_a[i], guess, b.seq.intr, pyramid, b.maps, b.scratch, ws,
+    if (calibrate_pair<real_t>(volume, pose_a[i], guess, b.seq.intr, pyramid, b.maps, ws,
                                params, r) != Status::kOk) {
       err = "calibration failed on frame " + std::to_string(j);
       return false;

@@ -505,7 +505,7 @@ void FusionPipeline::process_reference(uint64_t now_us) {
     }
     if (first && clear_pending_) centre_volume(f, start);
     Status s = Status::kOk;
-    if (!first) s = raycast_parallel<real_t>(pool_, core_.volume, intr_, tracker_.raycast_pose(), ref.maps, ref.scratch);
+    if (!first) s = raycast_parallel<real_t>(pool_, core_.volume, intr_, tracker_.raycast_pose(), ref.maps);
     TrackResult r;
     if (s == Status::kOk) s = build_pyramid<real_t>(f.depth, PyramidParams(), ref.pyramid);
     if (s == Status::kOk) s = tracker_.track<real_t>(ref.pyramid, ref.maps, intr_, ref.icp_ws, r, nullptr);

@@ -94,7 +94,7 @@ bool FusionPipeline::calibrate_pair(const char* from, const char* to, runtime::P
             continue;
           }
           const Status st = ::edgefuse::calibrate_pair<real_t>(core_.volume, ref_pose_, guess, B.intr, B.pyramid,
-                                                               B.maps, B.scratch, B.icp_ws, params, r);
+                                                               B.maps, B.icp_ws, params, r);
           if (st != Status::kOk) {
             std::snprintf(reason, sizeof(reason), "calibration failed: %s", to_string(st));
           } else if (!r.accepted) {

@@ -25,8 +25,6 @@ namespace edgefuse {
 //! \param pyramid pyramid storage for the view
 //! \param model_maps raycast maps of the view's size (model space; overwritten)
 //! \param other_maps raycast maps of the view's size (other space; overwritten)
-//! \param model_scratch tile scratch for the model raycasts
-//! \param other_scratch tile scratch for the other space's raycasts
 //! \param depth_scratch raw depth image of the view's size (the other space's depth)
 //! \param ws ICP row sums
 //! \param params stages and acceptance thresholds
@@ -35,8 +33,7 @@ namespace edgefuse {
 template <class Real>
 Status align_spaces(const TsdfVolume& model, const TsdfVolume& other, const PinholeIntrinsics& view_intr,
                     const Pose& T_model_view, const Pose& T_model_other_guess, FramePyramid<Real>& pyramid,
-                    const RaycastMaps& model_maps, const RaycastMaps& other_maps, FrameScratch& model_scratch,
-                    FrameScratch& other_scratch, ImageView<uint16_t> depth_scratch, const IcpWorkspace<Real>& ws,
+                    const RaycastMaps& model_maps, const RaycastMaps& other_maps, ImageView<uint16_t> depth_scratch, const IcpWorkspace<Real>& ws,
                     const PairCalibrationParams& params, int outer_rounds, PairCalibrationResult& out);
 
 }  // namespace edgefuse

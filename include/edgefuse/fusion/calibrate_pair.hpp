@@ -63,7 +63,6 @@ struct PairCalibrationResult {
 //! \param intr_b B's intrinsics
 //! \param frame_b B's frame at the still pose (pyramid, after B's pre-filters)
 //! \param maps_b raycast maps of B's size (depth, vertex, normal; overwritten)
-//! \param scratch_b B's tile scratch
 //! \param ws ICP row sums (>= intr_b.height rows)
 //! \param params stages and acceptance thresholds
 //! \param out result
@@ -71,7 +70,7 @@ struct PairCalibrationResult {
 template <class Real>
 Status calibrate_pair(const TsdfVolume& volume, const Pose& T_world_a, const Pose& T_a_b_guess,
                       const PinholeIntrinsics& intr_b, const FramePyramid<Real>& frame_b, const RaycastMaps& maps_b,
-                      FrameScratch& scratch_b, const IcpWorkspace<Real>& ws, const PairCalibrationParams& params,
+                      const IcpWorkspace<Real>& ws, const PairCalibrationParams& params,
                       PairCalibrationResult& out, const RowRunner* runner = nullptr);
 
 }  // namespace edgefuse

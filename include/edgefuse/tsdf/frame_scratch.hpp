@@ -1,10 +1,9 @@
-// Per-sensor scratch of the integration and raycast kernels: coarse 8x8-pixel tiles.
+// Per-sensor scratch of the integration kernel: coarse 8x8-pixel tiles.
 //   depth_tiles: min / max of the valid raw depth in each tile of the frame being pushed, so a
 //                whole brick can be classified at once (entirely behind the surface: skipped;
 //                entirely in free space: updated without projecting each voxel).
-//   model_*_z:   z range of the surface bricks projected into each tile. Unused since round 5:
-//                the raycast keeps a range per pixel in its depth map (src/tsdf/raycast_bounds.hpp);
-//                the memory-map regions remain until the map is next reorganised.
+// The raycast needs none: it keeps each pixel's march range in its own depth map
+// (src/tsdf/raycast_bounds.hpp), so prepare_raycast / raycast take no scratch (since session 6).
 #pragma once
 
 #include <cstddef>

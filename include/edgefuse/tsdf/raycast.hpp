@@ -1,7 +1,7 @@
 // Raycasting a pinhole sensor's view out of the space (paper Fig. 3, "model <- raycast").
 //
-// First the marked 2^3-voxel blocks of the surface bricks (the blocks holding a distance below +1)
-// are projected into the image (prepare_raycast): each pixel gets the z range in which its ray can
+// First the marked 2^3-voxel blocks of the surface bricks (the blocks holding a distance at or
+// below 0) are projected into the image (prepare_raycast): each pixel gets the z range in which its ray can
 // meet a zero crossing, from the blocks facing the sensor (near end) and facing away (far end);
 // the range is kept in the depth map's own floats until the march reads it. A ray starts a voxel
 // before its range and stops a voxel after it; pixels no marked block covers are not marched.
@@ -20,7 +20,6 @@
 #include "edgefuse/core/status.hpp"
 #include "edgefuse/math/pose.hpp"
 #include "edgefuse/sensor/pinhole.hpp"
-#include "edgefuse/tsdf/frame_scratch.hpp"
 #include "edgefuse/tsdf/volume.hpp"
 
 namespace edgefuse {
@@ -42,10 +41,9 @@ inline constexpr int kRaycastDimMax = 1024;
 //! \param volume the space
 //! \param intr sensor intrinsics (min/max range bound the ray)
 //! \param T_world_cam sensor pose
-//! \param maps outputs (checked against intr)
-//! \param scratch the sensor's tile scratch (checked for the image size; the ranges need no memory)
+//! \param maps outputs (checked against intr; the ranges need no other memory)
 Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
-                       const RaycastMaps& maps, FrameScratch& scratch);
+                       const RaycastMaps& maps);
 
 //! Step 2: rows [row_begin, row_end) of the raycast. Thread-safe for disjoint row ranges.
 template <class Real>
@@ -53,9 +51,13 @@ void raycast_rows(const TsdfVolume& volume, const PinholeIntrinsics& intr, const
                   const RaycastMaps& maps, int row_begin, int row_end);
 
 //! Both steps, the whole image on the calling thread.
+//! \param volume the space
+//! \param intr sensor intrinsics
+//! \param T_world_cam sensor pose
+//! \param maps outputs (checked against intr)
 template <class Real>
 Status raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam,
-               const RaycastMaps& maps, FrameScratch& scratch);
+               const RaycastMaps& maps);
 
 //! Trilinear TSDF at a world point, in metres (distance * trunc); false where any of the 8
 //! voxels is unobserved or the point is outside the volume.
