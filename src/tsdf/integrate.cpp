@@ -332,12 +332,19 @@ std::size_t select_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr, con
   return count;
 }
 
-template <class Real>
-void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::size_t begin, std::size_t end) {
+namespace {
+
+// The brick loop, compiled once per combination of the per-frame switches so that the voxel loop
+// of a plain depth frame (no colour, no trust map, not a colour pass: every frame of `edgefuse
+// fuse` and `track` without colour) carries no tests of them: kColour = the frame's colour is
+// fused (volume with colour), kExtras = a trust map or the colour-only pass. Same arithmetic in
+// every instance, so the same voxels.
+template <class Real, bool kColour, bool kExtras>
+void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, std::size_t begin, std::size_t end) {
   const uint32_t* list = volume.brick_list();
   int16_t* tsdf = volume.tsdf();
   uint8_t* weight = volume.weight();
-  Rgb8* colour = job.frame.colour.empty() ? nullptr : volume.colour();
+  Rgb8* colour = kColour ? volume.colour() : nullptr;
   uint8_t* colour_weight = volume.colour_weight();
   uint8_t* flags = volume.brick_flags();
   const uint16_t* shape = volume.weight_table().shape;
@@ -347,10 +354,10 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
   const int32_t full_weight = int32_t((uint32_t(WeightTable::kOne) * job.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
   // Voxels closer than a voxel to the sensor plane are not projected (division by ~0).
   const Real near_z = job.voxel;
-  const bool has_trust = !job.frame.trust.empty();
+  const bool has_trust = kExtras && !job.frame.trust.empty();
   // Per-frame constants of the voxel loop held in locals: the voxel stores go through uint8_t
   // pointers, which may alias `job`, so its members would be reloaded after every store.
-  const bool colour_only = job.colour_only;
+  const bool colour_only = kExtras && job.colour_only;
   const Real jump = job.jump, minus_rho = zero - job.rho, trunc = job.trunc, min_z = job.min_z, max_z = job.max_z;
   const DepthTile* const tiles = job.tiles;
   const std::size_t tiles_x = std::size_t(job.tiles_x);
@@ -391,7 +398,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
     if (cls == BrickClass::kSkip) continue;
     const std::size_t base = std::size_t(brick) * kBrickVoxels;
     bool surface = false, observed = false;
-    if (job.colour_only && (cls == BrickClass::kFreeSpace || (flags[brick] & kBrickSurface) == 0)) continue;
+    if (colour_only && (cls == BrickClass::kFreeSpace || (flags[brick] & kBrickSurface) == 0)) continue;
     if (cls == BrickClass::kFreeSpace) {
       free_space_update(tsdf, weight, base, 0, kBrickSide, max_weight, full_weight, surface);
       flags[brick] |= surface ? (kBrickObserved | kBrickSurface) : kBrickObserved;
@@ -409,7 +416,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
       const BrickClass sub = classify_box(job, cam, cb, half_span, near_z, false);
       if (sub == BrickClass::kSkip) continue;
       const int first = (off[2] << 6) | (off[1] << 3) | off[0];
-      if (sub == BrickClass::kFreeSpace && job.colour_only) continue;
+      if (sub == BrickClass::kFreeSpace && colour_only) continue;
       if (sub == BrickClass::kFreeSpace) {
         free_space_update(tsdf, weight, base, first, kHalf, max_weight, full_weight, surface);
         observed = true;
@@ -506,6 +513,20 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
     if (surface) flags[brick] |= kBrickSurface;
     if (observed && (flags[brick] & kBrickSurface)) block_mask::refresh(volume, brick);
   }
+}
+
+}  // namespace
+
+template <class Real>
+void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::size_t begin, std::size_t end) {
+  const bool with_colour = !job.frame.colour.empty() && volume.colour() != nullptr;
+  const bool extras = job.colour_only || !job.frame.trust.empty();
+  if (with_colour)
+    extras ? integrate_bricks_as<Real, true, true>(volume, job, begin, end)
+           : integrate_bricks_as<Real, true, false>(volume, job, begin, end);
+  else
+    extras ? integrate_bricks_as<Real, false, true>(volume, job, begin, end)
+           : integrate_bricks_as<Real, false, false>(volume, job, begin, end);
 }
 
 void finish_integration(TsdfVolume& volume, std::size_t count) {
