@@ -41,17 +41,16 @@ struct DepthLookup {
   DepthScale<Real> scale;
 };
 
-// Measured z-depth at the projection (pu, pv) of a voxel whose nearest pixel (iu, iv) lies at
-// index `pix` and holds the raw depth `nearest`.
+// Measured z-depth at the projection (pu, pv) of a voxel whose nearest pixel holds the raw depth
+// `nearest`; (u0, v0) = (floor(pu), floor(pv)), at index `win` in the image.
 // Bilinear over the 4 surrounding pixels when all are valid and within a depth jump of each other;
 // the nearest pixel when some are missing (or at the border); false at a discontinuity or no data.
 template <class Real>
-inline bool depth_at(const DepthLookup<Real>& dl, Real pu, Real pv, int iu, int iv, std::ptrdiff_t pix,
+inline bool depth_at(const DepthLookup<Real>& dl, Real pu, Real pv, int u0, int v0, std::ptrdiff_t win,
                      uint32_t nearest, Real& z) {
-  const int u0 = floor_int(pu), v0 = floor_int(pv);
   if (uint32_t(u0) < dl.last_u && uint32_t(v0) < dl.last_v) {
     // (u0, v0) is the nearest pixel or its neighbour to the left / above.
-    const uint16_t* r0 = dl.px + (pix - (iu - u0) - (iv - v0) * dl.stride);
+    const uint16_t* r0 = dl.px + win;
     const uint16_t* r1 = r0 + dl.stride;
     const uint32_t q[4] = {r0[0], r0[1], r1[0], r1[1]};
     // Min / max without branches: 0 (no depth) is the smallest raw value, so min(q) != 0 says all
@@ -259,6 +258,8 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
     return Status::kInvalidArgument;
   if (!T_world_cam.R.allFinite() || !T_world_cam.t.allFinite()) return Status::kInvalidArgument;
   if (!scratch.fits(intr.width, intr.height)) return Status::kCapacityExceeded;
+  // project_row computes pixel indices in float (exact below 2^24).
+  if (int64_t(frame.depth.stride) * intr.height >= (int64_t(1) << 24)) return Status::kCapacityExceeded;
 
   const Pose T_cam_world = T_world_cam.inverse();
   const TsdfParams& p = volume.params();
@@ -337,8 +338,9 @@ namespace {
 // The brick loop, compiled once per combination of the per-frame switches so that the voxel loop
 // of a plain depth frame (no colour, no trust map, not a colour pass: every frame of `edgefuse
 // fuse` and `track` without colour) carries no tests of them: kColour = the frame's colour is
-// fused (volume with colour), kExtras = a trust map or the colour-only pass. Same arithmetic in
-// every instance, so the same voxels.
+// fused (volume with colour), kExtras = a trust map or the colour-only pass, or a ray-norm map
+// whose row stride differs from the depth image's (else it is read at the depth pixel's index).
+// Same arithmetic in every instance, so the same voxels.
 template <class Real, bool kColour, bool kExtras>
 void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, std::size_t begin, std::size_t end) {
   const uint32_t* list = volume.brick_list();
@@ -367,7 +369,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
   const ImageView<const Real> ray_norms = job.ray_norms;
   const ImageView<const Rgb8> colour_px = job.frame.colour;
   const LaneCamera<Real> cam = {job.fx, job.fy, job.cx, job.cy, job.width, job.height, float(job.width), float(job.height),
-                                job.frame.depth.stride};
+                                job.frame.depth.stride, float(job.frame.depth.stride)};
   const DepthLookup<Real> dl = {job.frame.depth.data, std::ptrdiff_t(job.frame.depth.stride), uint32_t(job.width - 1),
                                 uint32_t(job.height - 1), job.jump_raw, job.depth};
   const DepthScale<Real> scale = job.depth;
@@ -462,10 +464,12 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
               continue;
             }
             Real z;
-            if (!depth_at(dl, pu, pv, iu, iv, pix, nearest, z)) continue;
+            int u0, v0, win;
+            lane_floor(rp, lx, cam.stride, u0, v0, win);
+            if (!depth_at(dl, pu, pv, u0, v0, win, nearest, z)) continue;
             if (z < min_z || z > max_z) continue;
             // Eq. (1): (measured range) - (voxel range) along the ray = (z - p.z) |ray|.
-            const Real d = (z - vz) * ray_norms.at(iu, iv);
+            const Real d = (z - vz) * (kExtras ? ray_norms.at(iu, iv) : ray_norms.data[pix]);
             if (d <= minus_rho) continue;
             // Eq. (2) from the table: full weight in front of -eps.
             int32_t w = full_weight;
@@ -520,7 +524,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
 template <class Real>
 void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::size_t begin, std::size_t end) {
   const bool with_colour = !job.frame.colour.empty() && volume.colour() != nullptr;
-  const bool extras = job.colour_only || !job.frame.trust.empty();
+  const bool extras = job.colour_only || !job.frame.trust.empty() || job.ray_norms.stride != job.frame.depth.stride;
   if (with_colour)
     extras ? integrate_bricks_as<Real, true, true>(volume, job, begin, end)
            : integrate_bricks_as<Real, true, false>(volume, job, begin, end);

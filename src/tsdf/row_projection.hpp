@@ -30,6 +30,11 @@ struct RowProjection {
   int32_t iu[kRowLanes];   //!< nearest pixel
   int32_t iv[kRowLanes];
   int32_t pix[kRowLanes];  //!< its index in the depth image: iv * stride + iu
+  //! floor(pu), floor(pv): the top-left pixel of the bilinear window (float build; the fixed-point
+  //! build leaves them to lane_floor, which costs it a shift per voxel that reaches the lookup).
+  int32_t u0[kRowLanes];
+  int32_t v0[kRowLanes];
+  int32_t win[kRowLanes];  //!< index of pixel (u0, v0) in the depth image (float build)
 };
 
 //! Pinhole projection parameters of one frame, in the kernel scalar.
@@ -39,6 +44,7 @@ struct LaneCamera {
   int width, height;    //!< image size in pixels
   float width_f, height_f;  //!< the same as floats (exact)
   int stride;           //!< depth image row stride in pixels
+  float stride_f;       //!< the same as a float (exact; stride * height < 2^24, see project_row)
 };
 
 namespace lanes_detail {
@@ -85,7 +91,17 @@ inline unsigned project_row(const LaneCamera<float>& cam, const float p0[3], con
   // Dead lanes are converted from 0: their coordinates may be out of int range.
   const I4 iu = __builtin_convertvector(live ? su : zero, I4);
   const I4 iv = __builtin_convertvector(live ? sv : zero, I4);
-  const I4 pix = iv * cam.stride + iu;
+  const F4 iu_f = __builtin_convertvector(iu, F4), iv_f = __builtin_convertvector(iv, F4);
+  // The pixel index in float: exact while stride * height < 2^24 (4096 x 4096), and SSE2 has no
+  // 32-bit integer multiply (GCC emulates it with two 64-bit multiplies and three shuffles).
+  const I4 pix = __builtin_convertvector(iv_f * cam.stride_f + iu_f, I4);
+  // floor(x) from the nearest pixel i = int(x + 0.5), which is floor(x) or floor(x) + 1 for a
+  // live lane (x >= -0.5): one less when x < i. The same integers as floor_int, per lane in the
+  // vector instead of two conversions and a compare per voxel in the bilinear lookup. (A scalar
+  // select `i - (x < i)` was compiled as a branch, round 5.)
+  const I4 below_u = pu < iu_f, below_v = pv < iv_f;  // lanes 0 or -1
+  const I4 u0 = iu + below_u, v0 = iv + below_v;
+  const I4 win = pix + below_u - (below_v & I4{cam.stride, cam.stride, cam.stride, cam.stride});
   for (int k = 0; k < kRowLanes; ++k) {
     out.z[k] = z[k];
     out.pu[k] = pu[k];
@@ -93,6 +109,9 @@ inline unsigned project_row(const LaneCamera<float>& cam, const float p0[3], con
     out.iu[k] = iu[k];
     out.iv[k] = iv[k];
     out.pix[k] = pix[k];
+    out.u0[k] = u0[k];
+    out.v0[k] = v0[k];
+    out.win[k] = win[k];
   }
   return mask_of(live);
 }
@@ -116,6 +135,19 @@ inline unsigned project_row(const LaneCamera<Fixed>& cam, const Fixed p0[3], con
     live |= 1u << k;
   }
   return live;
+}
+
+//! floor(pu) and floor(pv) of live lane k and the index of that pixel in the depth image:
+//! precomputed in the float build, computed here in Q16.16.
+inline void lane_floor(const RowProjection<float>& rp, int k, int /*stride*/, int& u0, int& v0, int& win) {
+  u0 = rp.u0[k];
+  v0 = rp.v0[k];
+  win = rp.win[k];
+}
+inline void lane_floor(const RowProjection<Fixed>& rp, int k, int stride, int& u0, int& v0, int& win) {
+  u0 = floor_int(rp.pu[k]);
+  v0 = floor_int(rp.pv[k]);
+  win = rp.pix[k] - (rp.iu[k] - u0) - (rp.iv[k] - v0) * stride;
 }
 
 //! Image-space bounds of a box's 8 corners.
