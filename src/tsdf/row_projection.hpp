@@ -179,27 +179,31 @@ inline bool project_box(const LaneCamera<float>& cam, const float c0[3], const f
   const F4 inv_lo = 1.0f / lo[2], inv_hi = 1.0f / hi[2];
   const F4 u_a = cam.fx * (lo[0] * inv_lo) + cam.cx, u_b = cam.fx * (hi[0] * inv_hi) + cam.cx;
   const F4 v_a = cam.fy * (lo[1] * inv_lo) + cam.cy, v_b = cam.fy * (hi[1] * inv_hi) + cam.cy;
-  // Lane-wise minimum / maximum of the two groups, then across the lanes (order-free: min and
-  // max of the same values are the same values).
+  // Lane-wise minimum / maximum of the two groups, then across the lanes by two shuffles each
+  // (order-free: min and max of the same values are the same values; the corners are finite, in
+  // front of the sensor). The image bounds are clamped to +-2^20 as before.
   const F4 z_min = lo[2] < hi[2] ? lo[2] : hi[2], z_max = lo[2] > hi[2] ? lo[2] : hi[2];
   const F4 u_min = u_a < u_b ? u_a : u_b, u_max = u_a > u_b ? u_a : u_b;
   const F4 v_min = v_a < v_b ? v_a : v_b, v_max = v_a > v_b ? v_a : v_b;
-  auto lane_min = [](F4 a, float init) {
-    float m = init;
-    for (int k = 0; k < 4; ++k) m = a[k] < m ? a[k] : m;
-    return m;
+  const I4 swap_pairs = {2, 3, 0, 1}, swap_lanes = {1, 0, 3, 2};
+  auto lane_min = [&](F4 a) {
+    a = a < __builtin_shuffle(a, swap_pairs) ? a : __builtin_shuffle(a, swap_pairs);
+    a = a < __builtin_shuffle(a, swap_lanes) ? a : __builtin_shuffle(a, swap_lanes);
+    return a[0];
   };
-  auto lane_max = [](F4 a, float init) {
-    float m = init;
-    for (int k = 0; k < 4; ++k) m = a[k] > m ? a[k] : m;
-    return m;
+  auto lane_max = [&](F4 a) {
+    a = a > __builtin_shuffle(a, swap_pairs) ? a : __builtin_shuffle(a, swap_pairs);
+    a = a > __builtin_shuffle(a, swap_lanes) ? a : __builtin_shuffle(a, swap_lanes);
+    return a[0];
   };
-  out.z_lo = lane_min(z_min, c0[2]);
-  out.z_hi = lane_max(z_max, c0[2]);
-  out.u_lo = lane_min(u_min, float(1 << 20));
-  out.u_hi = lane_max(u_max, -float(1 << 20));
-  out.v_lo = lane_min(v_min, float(1 << 20));
-  out.v_hi = lane_max(v_max, -float(1 << 20));
+  constexpr float kBound = float(1 << 20);
+  const float u_lo = lane_min(u_min), u_hi = lane_max(u_max), v_lo = lane_min(v_min), v_hi = lane_max(v_max);
+  out.z_lo = lane_min(z_min);
+  out.z_hi = lane_max(z_max);
+  out.u_lo = u_lo < kBound ? u_lo : kBound;
+  out.u_hi = u_hi > -kBound ? u_hi : -kBound;
+  out.v_lo = v_lo < kBound ? v_lo : kBound;
+  out.v_hi = v_hi > -kBound ? v_hi : -kBound;
   return true;
 }
 
