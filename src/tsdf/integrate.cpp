@@ -373,6 +373,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
   const DepthLookup<Real> dl = {job.frame.depth.data, std::ptrdiff_t(job.frame.depth.stride), uint32_t(job.width - 1),
                                 uint32_t(job.height - 1), job.jump_raw, job.depth};
   const DepthScale<Real> scale = job.depth;
+  const RowDepth<Real> row_depth = {job.frame.depth.data, job.depth, jump, minus_rho};
 
   // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
   // span: from the brick's first to its last voxel centre along each axis.
@@ -430,21 +431,19 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
         for (int ly = 0; ly < kHalf; ++ly) {
           const std::size_t row = base + std::size_t(first + (lz << 6) + (ly << 3));
           RowProjection<Real> rp;
-          unsigned live = project_row(cam, py, step[0], near_z, rp);
+          const unsigned live = project_row(cam, py, step[0], near_z, row_depth, rp);
           for (int r = 0; r < 3; ++r) py[r] += step[1][r];
 #pragma GCC unroll 4
           for (int lx = 0; lx < kRowLanes; ++lx) {
             if (((live >> lx) & 1u) == 0) continue;
             const Real pu = rp.pu[lx], pv = rp.pv[lx], vz = rp.z[lx];
             const int iu = rp.iu[lx], iv = rp.iv[lx];
-            // Cheap exits on the nearest pixel before interpolating: no data; certainly occluded
-            // (an interpolated depth is at most a depth jump beyond the nearest pixel's);
-            // certainly free space (every pixel around is at least trunc beyond the voxel).
+            // Cheap exits on the nearest pixel before interpolating: no data and certainly
+            // occluded (project_row: the lane is not in `live`); certainly free space (every
+            // pixel around is at least trunc beyond the voxel).
             const std::ptrdiff_t pix = rp.pix[lx];
-            const uint16_t nearest = dl.px[pix];
-            if (nearest == 0) continue;
-            const Real z_near = scale.metres(nearest);
-            if (z_near + jump - vz < minus_rho) continue;
+            const uint16_t nearest = uint16_t(rp.nearest[lx]);
+            const Real z_near = rp.z_near[lx];
             const std::size_t idx = row + std::size_t(lx);
             if (colour_only && (colour == nullptr || weight[idx] == 0)) continue;
             // The tile's neighbourhood minimum is at most the nearest pixel's depth, so a voxel less
