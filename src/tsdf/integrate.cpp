@@ -93,7 +93,7 @@ inline void fold_depth_row(const uint16_t* row, int u0, int u1, uint32_t& lo, ui
 }
 
 // Min / max valid raw depth per 8x8 tile.
-void build_depth_tiles(const ImageView<const uint16_t>& depth, DepthTile* tiles) {
+void build_depth_tiles(const ImageView<const uint16_t>& depth, const DepthScale<float>& scale, DepthTile* tiles) {
   const int tx = FrameScratch::tiles_x(depth.width), ty = FrameScratch::tiles_y(depth.height);
   for (int j = 0; j < ty; ++j)
     for (int i = 0; i < tx; ++i) {
@@ -135,7 +135,9 @@ void build_depth_tiles(const ImageView<const uint16_t>& depth, DepthTile* tiles)
             const DepthTile& n = tiles[std::size_t(b) * tx + a];
             if (n.max_raw != 0 && n.min_raw < lo) lo = n.min_raw;
           }
-      tiles[std::size_t(j) * tx + i].near_raw = lo == 0xffff ? 0 : uint16_t(lo);
+      DepthTile& t = tiles[std::size_t(j) * tx + i];
+      t.near_raw = lo == 0xffff ? 0 : uint16_t(lo);
+      t.near_m = scale.metres(t.near_raw);
     }
 }
 
@@ -294,7 +296,7 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
   job.sub_unit_fill = frame.sub_unit_fill_units;
   job.frame = frame;
   job.ray_norms = ray_norms;
-  build_depth_tiles(frame.depth, scratch.depth_tiles);
+  build_depth_tiles(frame.depth, DepthScale<float>(intr.depth_scale), scratch.depth_tiles);
   job.tiles = scratch.depth_tiles;
   job.tiles_x = FrameScratch::tiles_x(intr.width);
   job.tiles_y = FrameScratch::tiles_y(intr.height);
@@ -335,6 +337,11 @@ std::size_t select_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr, con
 
 namespace {
 
+// A tile's neighbourhood minimum in metres: converted once per tile for the float kernel (the
+// same product as DepthScale<float>::metres), per voxel in Q16.16.
+inline float tile_near(const DepthTile& t, const DepthScale<float>& /*scale*/) { return t.near_m; }
+inline Fixed tile_near(const DepthTile& t, const DepthScale<Fixed>& scale) { return scale.metres(t.near_raw); }
+
 // The brick loop, compiled once per combination of the per-frame switches so that the voxel loop
 // of a plain depth frame (no colour, no trust map, not a colour pass: every frame of `edgefuse
 // fuse` and `track` without colour) carries no tests of them: kColour = the frame's colour is
@@ -362,14 +369,14 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
   const bool colour_only = kExtras && job.colour_only;
   const Real jump = job.jump, minus_rho = zero - job.rho, trunc = job.trunc, min_z = job.min_z, max_z = job.max_z;
   const DepthTile* const tiles = job.tiles;
-  const std::size_t tiles_x = std::size_t(job.tiles_x);
+  const int tiles_x_i = job.tiles_x;
   const Real eps = job.eps, minus_eps = zero - job.eps, band_to_index = job.band_to_index, inv_trunc = job.inv_trunc;
   const Real colour_band = job.colour_band, minus_colour_band = zero - job.colour_band;
   const uint32_t trust_q8 = job.trust_q8;
   const ImageView<const Real> ray_norms = job.ray_norms;
   const ImageView<const Rgb8> colour_px = job.frame.colour;
   const LaneCamera<Real> cam = {job.fx, job.fy, job.cx, job.cy, job.width, job.height, float(job.width), float(job.height),
-                                job.frame.depth.stride, float(job.frame.depth.stride)};
+                                job.frame.depth.stride, float(job.frame.depth.stride), float(job.tiles_x)};
   const DepthLookup<Real> dl = {job.frame.depth.data, std::ptrdiff_t(job.frame.depth.stride), uint32_t(job.width - 1),
                                 uint32_t(job.height - 1), job.jump_raw, job.depth};
   const DepthScale<Real> scale = job.depth;
@@ -450,7 +457,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
             // than trunc in front of its nearest pixel cannot pass the free-space test: the tile is
             // read only for the others (same decisions, monotone roundings).
             if (z_near - vz >= trunc &&
-                scale.metres(tiles[std::size_t(iv >> 3) * tiles_x + std::size_t(iu >> 3)].near_raw) - vz >= trunc &&
+                tile_near(tiles[lane_tile(rp, lx, tiles_x_i)], scale) - vz >= trunc &&
                 z_near <= max_z && z_near >= min_z) {
               if (colour_only) continue;
               const int32_t old_w = weight[idx];

@@ -35,6 +35,7 @@ struct RowProjection {
   int32_t u0[kRowLanes];
   int32_t v0[kRowLanes];
   int32_t win[kRowLanes];  //!< index of pixel (u0, v0) in the depth image (float build)
+  int32_t tile[kRowLanes];     //!< index of the nearest pixel's 8x8 depth tile (float build)
   int32_t nearest[kRowLanes];  //!< raw depth of the nearest pixel
   Real z_near[kRowLanes];      //!< the same in metres
 };
@@ -56,6 +57,7 @@ struct LaneCamera {
   float width_f, height_f;  //!< the same as floats (exact)
   int stride;           //!< depth image row stride in pixels
   float stride_f;       //!< the same as a float (exact; stride * height < 2^24, see project_row)
+  float tiles_x_f;      //!< 8x8-pixel depth tiles per image row, as a float
 };
 
 namespace lanes_detail {
@@ -122,6 +124,9 @@ inline unsigned project_row(const LaneCamera<float>& cam, const float p0[3], con
   const I4 nearest = {depth.px[pix[0]], depth.px[pix[1]], depth.px[pix[2]], depth.px[pix[3]]};
   const F4 z_near = __builtin_convertvector(nearest, F4) * depth.scale.inv;
   const I4 keep = live & (nearest != 0) & ((z_near + depth.jump) - z >= depth.minus_rho);
+  // The 8x8 tile of the nearest pixel (free-space test), in float like pix.
+  const I4 tile = __builtin_convertvector(__builtin_convertvector(iv >> 3, F4) * cam.tiles_x_f +
+                                              __builtin_convertvector(iu >> 3, F4), I4);
   for (int k = 0; k < kRowLanes; ++k) {
     out.z[k] = z[k];
     out.pu[k] = pu[k];
@@ -132,6 +137,7 @@ inline unsigned project_row(const LaneCamera<float>& cam, const float p0[3], con
     out.u0[k] = u0[k];
     out.v0[k] = v0[k];
     out.win[k] = win[k];
+    out.tile[k] = tile[k];
     out.nearest[k] = nearest[k];
     out.z_near[k] = z_near[k];
   }
@@ -176,6 +182,12 @@ inline void lane_floor(const RowProjection<Fixed>& rp, int k, int stride, int& u
   u0 = floor_int(rp.pu[k]);
   v0 = floor_int(rp.pv[k]);
   win = rp.pix[k] - (rp.iu[k] - u0) - (rp.iv[k] - v0) * stride;
+}
+
+//! Index of lane k's 8x8 depth tile: precomputed in the float build, computed here in Q16.16.
+inline int lane_tile(const RowProjection<float>& rp, int k, int /*tiles_x*/) { return rp.tile[k]; }
+inline int lane_tile(const RowProjection<Fixed>& rp, int k, int tiles_x) {
+  return (rp.iv[k] >> 3) * tiles_x + (rp.iu[k] >> 3);
 }
 
 //! Image-space bounds of a box's 8 corners.
