@@ -161,7 +161,7 @@ inline void free_space_update(int16_t* tsdf, uint8_t* weight, std::size_t base, 
         const int32_t value = old_w == 0 ? kTsdfMax : blend(tsdf[idx], old_w, kTsdfMax, full_weight);
         tsdf[idx] = int16_t(value);
         weight[idx] = cap_weight(old_w + full_weight, max_weight);
-        surface = surface || value < kTsdfMax;
+        surface |= value < kTsdfMax;  // no branch on it
       }
 }
 
@@ -294,6 +294,21 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
   job.jump = job.depth.metres(uint16_t(job.jump_raw));
   if (frame.sub_unit_fill_units < 1 || frame.sub_unit_fill_units > 255) return Status::kInvalidArgument;
   job.sub_unit_fill = frame.sub_unit_fill_units;
+  // Raw depths whose metres lie in [min_z, max_z]: an interval, as metres() is monotone.
+  {
+    uint32_t lo = 0, hi = 65536;  // first raw at or above min_z
+    while (lo < hi) {
+      const uint32_t mid = (lo + hi) / 2;
+      if (job.depth.metres(uint16_t(mid)) >= job.min_z) hi = mid; else lo = mid + 1;
+    }
+    uint32_t lo2 = 0, hi2 = 65536;  // first raw above max_z
+    while (lo2 < hi2) {
+      const uint32_t mid = (lo2 + hi2) / 2;
+      if (job.depth.metres(uint16_t(mid)) > job.max_z) hi2 = mid; else lo2 = mid + 1;
+    }
+    job.raw_in_range_lo = lo < lo2 ? lo : 0x10000u;  // empty: no raw passes
+    job.raw_in_range_span = lo < lo2 ? lo2 - 1 - lo : 0u;
+  }
   job.frame = frame;
   job.ray_norms = ray_norms;
   build_depth_tiles(frame.depth, DepthScale<float>(intr.depth_scale), scratch.depth_tiles);
@@ -381,6 +396,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
                                 uint32_t(job.height - 1), job.jump_raw, job.depth};
   const DepthScale<Real> scale = job.depth;
   const RowDepth<Real> row_depth = {job.frame.depth.data, job.depth, jump, minus_rho};
+  const uint32_t raw_lo = job.raw_in_range_lo, raw_span = job.raw_in_range_span;
 
   // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
   // span: from the brick's first to its last voxel centre along each axis.
@@ -458,7 +474,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
             // read only for the others (same decisions, monotone roundings).
             if (z_near - vz >= trunc &&
                 tile_near(tiles[lane_tile(rp, lx, tiles_x_i)], scale) - vz >= trunc &&
-                z_near <= max_z && z_near >= min_z) {
+                uint32_t(nearest) - raw_lo <= raw_span) {  // min_z <= z_near <= max_z
               if (colour_only) continue;
               const int32_t old_w = weight[idx];
               if (old_w == max_weight && tsdf[idx] == kTsdfMax) continue;
@@ -466,7 +482,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
               tsdf[idx] = int16_t(value);
               weight[idx] = cap_weight(old_w + full_weight, max_weight);
               observed = true;
-              surface = surface || value < kTsdfMax;
+              surface |= value < kTsdfMax;
               continue;
             }
             Real z;
@@ -498,7 +514,8 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
               tsdf[idx] = int16_t(value);
               weight[idx] = cap_weight(old_w + w, max_weight);
               observed = true;
-              surface = surface || (value < kTsdfMax && value > -kTsdfMax);
+              // -kTsdfMax < value < kTsdfMax, without a branch
+              surface |= uint32_t(value + (kTsdfMax - 1)) < uint32_t(2 * kTsdfMax - 1);
             }
 
             if (colour != nullptr && d < colour_band && d > minus_colour_band) {
