@@ -174,8 +174,7 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const LaneCamera<Real>&
   if (!project_box(cam, c0, span, near_z, box)) return BrickClass::kVoxels;  // straddles the sensor plane: no bound
   const Real z_lo = box.z_lo, z_hi = box.z_hi;
   // Pixels a voxel of the brick may read (bilinear reaches one pixel further).
-  int a0 = floor_int(box.u_lo) - 1, a1 = floor_int(box.u_hi) + 2, b0 = floor_int(box.v_lo) - 1,
-      b1 = floor_int(box.v_hi) + 2;
+  int a0 = box.a0, a1 = box.a1, b0 = box.b0, b1 = box.b1;
   if (a1 < 0 || b1 < 0 || a0 >= job.width || b0 >= job.height) return BrickClass::kSkip;
   const bool inside = a0 >= 0 && b0 >= 0 && a1 < job.width && b1 < job.height;
   a0 = a0 < 0 ? 0 : a0;

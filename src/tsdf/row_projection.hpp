@@ -194,8 +194,10 @@ inline int lane_tile(const RowProjection<Fixed>& rp, int k, int tiles_x) {
 template <class Real>
 struct BoxBounds {
   Real z_lo, z_hi;  //!< camera-frame z range
-  Real u_lo, u_hi;  //!< image coordinate ranges, clamped to +-2^20 pixels
-  Real v_lo, v_hi;
+  //! Pixels a voxel of the box may read: floor(u_lo) - 1 .. floor(u_hi) + 2 (bilinear reaches one
+  //! pixel further), likewise in v; u_lo, u_hi, v_lo, v_hi are the projected corners' ranges,
+  //! u_lo and v_lo at most 2^20, u_hi and v_hi at least -2^20.
+  int a0, a1, b0, b1;
 };
 
 //! Projects the 8 corners c0 + the spans of the set bits of k (added in axis order: corner 3 =
@@ -236,14 +238,27 @@ inline bool project_box(const LaneCamera<float>& cam, const float c0[3], const f
     a = a > __builtin_shuffle(a, swap_lanes) ? a : __builtin_shuffle(a, swap_lanes);
     return a[0];
   };
-  constexpr float kBound = float(1 << 20);
-  const float u_lo = lane_min(u_min), u_hi = lane_max(u_max), v_lo = lane_min(v_min), v_hi = lane_max(v_max);
   out.z_lo = lane_min(z_min);
   out.z_hi = lane_max(z_max);
-  out.u_lo = u_lo < kBound ? u_lo : kBound;
-  out.u_hi = u_hi > -kBound ? u_hi : -kBound;
-  out.v_lo = v_lo < kBound ? v_lo : kBound;
-  out.v_hi = v_hi > -kBound ? v_hi : -kBound;
+  // The four image bounds at once: rows (u_min, v_min, -u_max, -v_max) transposed, so that lane-
+  // wise minima give (u_lo, v_lo, -u_hi, -v_hi) (a maximum is minus the minimum of the negated
+  // values, exactly), clamped by one minimum with 2^20, signs restored, floored (trunc, one less
+  // where that is above: the same integers as floor_int) and widened by the bilinear margin.
+  const F4 n_u = -u_max, n_v = -v_max;
+  const F4 t0 = __builtin_shuffle(u_min, v_min, I4{0, 4, 1, 5}), t1 = __builtin_shuffle(u_min, v_min, I4{2, 6, 3, 7});
+  const F4 t2 = __builtin_shuffle(n_u, n_v, I4{0, 4, 1, 5}), t3 = __builtin_shuffle(n_u, n_v, I4{2, 6, 3, 7});
+  const F4 k0 = __builtin_shuffle(t0, t2, I4{0, 1, 4, 5}), k1 = __builtin_shuffle(t0, t2, I4{2, 3, 6, 7});
+  const F4 k2 = __builtin_shuffle(t1, t3, I4{0, 1, 4, 5}), k3 = __builtin_shuffle(t1, t3, I4{2, 3, 6, 7});
+  auto vmin = [](F4 a, F4 b) { return a < b ? a : b; };
+  const F4 kBound = {float(1 << 20), float(1 << 20), float(1 << 20), float(1 << 20)};
+  const F4 bounds = vmin(vmin(vmin(k0, k1), vmin(k2, k3)), kBound) * F4{1.0f, 1.0f, -1.0f, -1.0f};
+  const I4 t = __builtin_convertvector(bounds, I4);
+  const I4 fl = t + (bounds < __builtin_convertvector(t, F4));
+  const I4 px = fl + I4{-1, -1, 2, 2};
+  out.a0 = px[0];
+  out.b0 = px[1];
+  out.a1 = px[2];
+  out.b1 = px[3];
   return true;
 }
 
@@ -259,8 +274,8 @@ inline bool project_box(const LaneCamera<Fixed>& cam, const Fixed c0[3], const F
     for (int k = 0; k < 4; ++k) corner[k + 4][r] = corner[k][r] + span[2][r];
   }
   out.z_lo = out.z_hi = c0[2];
-  out.u_lo = out.v_lo = Fixed::from_int(1 << 20);
-  out.u_hi = out.v_hi = Fixed::from_int(-(1 << 20));
+  Fixed u_lo = Fixed::from_int(1 << 20), v_lo = u_lo;
+  Fixed u_hi = Fixed::from_int(-(1 << 20)), v_hi = u_hi;
   for (int k = 0; k < 8; ++k) {
     const Fixed* p = corner[k];
     if (p[2] < near_z) return false;
@@ -268,11 +283,15 @@ inline bool project_box(const LaneCamera<Fixed>& cam, const Fixed c0[3], const F
     const Fixed u = cam.fx * (p[0] * inv_z) + cam.cx, v = cam.fy * (p[1] * inv_z) + cam.cy;
     out.z_lo = p[2] < out.z_lo ? p[2] : out.z_lo;
     out.z_hi = p[2] > out.z_hi ? p[2] : out.z_hi;
-    out.u_lo = u < out.u_lo ? u : out.u_lo;
-    out.u_hi = u > out.u_hi ? u : out.u_hi;
-    out.v_lo = v < out.v_lo ? v : out.v_lo;
-    out.v_hi = v > out.v_hi ? v : out.v_hi;
+    u_lo = u < u_lo ? u : u_lo;
+    u_hi = u > u_hi ? u : u_hi;
+    v_lo = v < v_lo ? v : v_lo;
+    v_hi = v > v_hi ? v : v_hi;
   }
+  out.a0 = floor_int(u_lo) - 1;
+  out.a1 = floor_int(u_hi) + 2;
+  out.b0 = floor_int(v_lo) - 1;
+  out.b1 = floor_int(v_hi) + 2;
   return true;
 }
 
