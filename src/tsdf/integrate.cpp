@@ -41,17 +41,16 @@ struct DepthLookup {
   DepthScale<Real> scale;
 };
 
-// Measured z-depth at the projection (pu, pv) of a voxel whose nearest pixel (iu, iv) lies at
-// index `pix` and holds the raw depth `nearest`.
+// Measured z-depth at the projection (pu, pv) of a voxel whose nearest pixel holds the raw depth
+// `nearest`; (u0, v0) = (floor(pu), floor(pv)), at index `win` in the image.
 // Bilinear over the 4 surrounding pixels when all are valid and within a depth jump of each other;
 // the nearest pixel when some are missing (or at the border); false at a discontinuity or no data.
 template <class Real>
-inline bool depth_at(const DepthLookup<Real>& dl, Real pu, Real pv, int iu, int iv, std::ptrdiff_t pix,
+inline bool depth_at(const DepthLookup<Real>& dl, Real pu, Real pv, int u0, int v0, std::ptrdiff_t win,
                      uint32_t nearest, Real& z) {
-  const int u0 = floor_int(pu), v0 = floor_int(pv);
   if (uint32_t(u0) < dl.last_u && uint32_t(v0) < dl.last_v) {
     // (u0, v0) is the nearest pixel or its neighbour to the left / above.
-    const uint16_t* r0 = dl.px + (pix - (iu - u0) - (iv - v0) * dl.stride);
+    const uint16_t* r0 = dl.px + win;
     const uint16_t* r1 = r0 + dl.stride;
     const uint32_t q[4] = {r0[0], r0[1], r1[0], r1[1]};
     // Min / max without branches: 0 (no depth) is the smallest raw value, so min(q) != 0 says all
@@ -94,7 +93,7 @@ inline void fold_depth_row(const uint16_t* row, int u0, int u1, uint32_t& lo, ui
 }
 
 // Min / max valid raw depth per 8x8 tile.
-void build_depth_tiles(const ImageView<const uint16_t>& depth, DepthTile* tiles) {
+void build_depth_tiles(const ImageView<const uint16_t>& depth, const DepthScale<float>& scale, DepthTile* tiles) {
   const int tx = FrameScratch::tiles_x(depth.width), ty = FrameScratch::tiles_y(depth.height);
   for (int j = 0; j < ty; ++j)
     for (int i = 0; i < tx; ++i) {
@@ -136,7 +135,9 @@ void build_depth_tiles(const ImageView<const uint16_t>& depth, DepthTile* tiles)
             const DepthTile& n = tiles[std::size_t(b) * tx + a];
             if (n.max_raw != 0 && n.min_raw < lo) lo = n.min_raw;
           }
-      tiles[std::size_t(j) * tx + i].near_raw = lo == 0xffff ? 0 : uint16_t(lo);
+      DepthTile& t = tiles[std::size_t(j) * tx + i];
+      t.near_raw = lo == 0xffff ? 0 : uint16_t(lo);
+      t.near_m = scale.metres(t.near_raw);
     }
 }
 
@@ -160,7 +161,7 @@ inline void free_space_update(int16_t* tsdf, uint8_t* weight, std::size_t base, 
         const int32_t value = old_w == 0 ? kTsdfMax : blend(tsdf[idx], old_w, kTsdfMax, full_weight);
         tsdf[idx] = int16_t(value);
         weight[idx] = cap_weight(old_w + full_weight, max_weight);
-        surface = surface || value < kTsdfMax;
+        surface |= value < kTsdfMax;  // no branch on it
       }
 }
 
@@ -173,8 +174,7 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const LaneCamera<Real>&
   if (!project_box(cam, c0, span, near_z, box)) return BrickClass::kVoxels;  // straddles the sensor plane: no bound
   const Real z_lo = box.z_lo, z_hi = box.z_hi;
   // Pixels a voxel of the brick may read (bilinear reaches one pixel further).
-  int a0 = floor_int(box.u_lo) - 1, a1 = floor_int(box.u_hi) + 2, b0 = floor_int(box.v_lo) - 1,
-      b1 = floor_int(box.v_hi) + 2;
+  int a0 = box.a0, a1 = box.a1, b0 = box.b0, b1 = box.b1;
   if (a1 < 0 || b1 < 0 || a0 >= job.width || b0 >= job.height) return BrickClass::kSkip;
   const bool inside = a0 >= 0 && b0 >= 0 && a1 < job.width && b1 < job.height;
   a0 = a0 < 0 ? 0 : a0;
@@ -259,6 +259,8 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
     return Status::kInvalidArgument;
   if (!T_world_cam.R.allFinite() || !T_world_cam.t.allFinite()) return Status::kInvalidArgument;
   if (!scratch.fits(intr.width, intr.height)) return Status::kCapacityExceeded;
+  // project_row computes pixel indices in float (exact below 2^24).
+  if (int64_t(frame.depth.stride) * intr.height >= (int64_t(1) << 24)) return Status::kCapacityExceeded;
 
   const Pose T_cam_world = T_world_cam.inverse();
   const TsdfParams& p = volume.params();
@@ -291,9 +293,24 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
   job.jump = job.depth.metres(uint16_t(job.jump_raw));
   if (frame.sub_unit_fill_units < 1 || frame.sub_unit_fill_units > 255) return Status::kInvalidArgument;
   job.sub_unit_fill = frame.sub_unit_fill_units;
+  // Raw depths whose metres lie in [min_z, max_z]: an interval, as metres() is monotone.
+  {
+    uint32_t lo = 0, hi = 65536;  // first raw at or above min_z
+    while (lo < hi) {
+      const uint32_t mid = (lo + hi) / 2;
+      if (job.depth.metres(uint16_t(mid)) >= job.min_z) hi = mid; else lo = mid + 1;
+    }
+    uint32_t lo2 = 0, hi2 = 65536;  // first raw above max_z
+    while (lo2 < hi2) {
+      const uint32_t mid = (lo2 + hi2) / 2;
+      if (job.depth.metres(uint16_t(mid)) > job.max_z) hi2 = mid; else lo2 = mid + 1;
+    }
+    job.raw_in_range_lo = lo < lo2 ? lo : 0x10000u;  // empty: no raw passes
+    job.raw_in_range_span = lo < lo2 ? lo2 - 1 - lo : 0u;
+  }
   job.frame = frame;
   job.ray_norms = ray_norms;
-  build_depth_tiles(frame.depth, scratch.depth_tiles);
+  build_depth_tiles(frame.depth, DepthScale<float>(intr.depth_scale), scratch.depth_tiles);
   job.tiles = scratch.depth_tiles;
   job.tiles_x = FrameScratch::tiles_x(intr.width);
   job.tiles_y = FrameScratch::tiles_y(intr.height);
@@ -332,12 +349,25 @@ std::size_t select_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr, con
   return count;
 }
 
-template <class Real>
-void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::size_t begin, std::size_t end) {
+namespace {
+
+// A tile's neighbourhood minimum in metres: converted once per tile for the float kernel (the
+// same product as DepthScale<float>::metres), per voxel in Q16.16.
+inline float tile_near(const DepthTile& t, const DepthScale<float>& /*scale*/) { return t.near_m; }
+inline Fixed tile_near(const DepthTile& t, const DepthScale<Fixed>& scale) { return scale.metres(t.near_raw); }
+
+// The brick loop, compiled once per combination of the per-frame switches so that the voxel loop
+// of a plain depth frame (no colour, no trust map, not a colour pass: every frame of `edgefuse
+// fuse` and `track` without colour) carries no tests of them: kColour = the frame's colour is
+// fused (volume with colour), kExtras = a trust map or the colour-only pass, or a ray-norm map
+// whose row stride differs from the depth image's (else it is read at the depth pixel's index).
+// Same arithmetic in every instance, so the same voxels.
+template <class Real, bool kColour, bool kExtras>
+void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, std::size_t begin, std::size_t end) {
   const uint32_t* list = volume.brick_list();
   int16_t* tsdf = volume.tsdf();
   uint8_t* weight = volume.weight();
-  Rgb8* colour = job.frame.colour.empty() ? nullptr : volume.colour();
+  Rgb8* colour = kColour ? volume.colour() : nullptr;
   uint8_t* colour_weight = volume.colour_weight();
   uint8_t* flags = volume.brick_flags();
   const uint16_t* shape = volume.weight_table().shape;
@@ -347,23 +377,25 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
   const int32_t full_weight = int32_t((uint32_t(WeightTable::kOne) * job.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
   // Voxels closer than a voxel to the sensor plane are not projected (division by ~0).
   const Real near_z = job.voxel;
-  const bool has_trust = !job.frame.trust.empty();
+  const bool has_trust = kExtras && !job.frame.trust.empty();
   // Per-frame constants of the voxel loop held in locals: the voxel stores go through uint8_t
   // pointers, which may alias `job`, so its members would be reloaded after every store.
-  const bool colour_only = job.colour_only;
+  const bool colour_only = kExtras && job.colour_only;
   const Real jump = job.jump, minus_rho = zero - job.rho, trunc = job.trunc, min_z = job.min_z, max_z = job.max_z;
   const DepthTile* const tiles = job.tiles;
-  const std::size_t tiles_x = std::size_t(job.tiles_x);
+  const int tiles_x_i = job.tiles_x;
   const Real eps = job.eps, minus_eps = zero - job.eps, band_to_index = job.band_to_index, inv_trunc = job.inv_trunc;
   const Real colour_band = job.colour_band, minus_colour_band = zero - job.colour_band;
   const uint32_t trust_q8 = job.trust_q8;
   const ImageView<const Real> ray_norms = job.ray_norms;
   const ImageView<const Rgb8> colour_px = job.frame.colour;
   const LaneCamera<Real> cam = {job.fx, job.fy, job.cx, job.cy, job.width, job.height, float(job.width), float(job.height),
-                                job.frame.depth.stride};
+                                job.frame.depth.stride, float(job.frame.depth.stride), float(job.tiles_x)};
   const DepthLookup<Real> dl = {job.frame.depth.data, std::ptrdiff_t(job.frame.depth.stride), uint32_t(job.width - 1),
                                 uint32_t(job.height - 1), job.jump_raw, job.depth};
   const DepthScale<Real> scale = job.depth;
+  const RowDepth<Real> row_depth = {job.frame.depth.data, job.depth, jump, minus_rho};
+  const uint32_t raw_lo = job.raw_in_range_lo, raw_span = job.raw_in_range_span;
 
   // Camera-frame step between neighbouring voxels along each grid axis: column of R times voxel;
   // span: from the brick's first to its last voxel centre along each axis.
@@ -391,7 +423,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
     if (cls == BrickClass::kSkip) continue;
     const std::size_t base = std::size_t(brick) * kBrickVoxels;
     bool surface = false, observed = false;
-    if (job.colour_only && (cls == BrickClass::kFreeSpace || (flags[brick] & kBrickSurface) == 0)) continue;
+    if (colour_only && (cls == BrickClass::kFreeSpace || (flags[brick] & kBrickSurface) == 0)) continue;
     if (cls == BrickClass::kFreeSpace) {
       free_space_update(tsdf, weight, base, 0, kBrickSide, max_weight, full_weight, surface);
       flags[brick] |= surface ? (kBrickObserved | kBrickSurface) : kBrickObserved;
@@ -409,7 +441,7 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
       const BrickClass sub = classify_box(job, cam, cb, half_span, near_z, false);
       if (sub == BrickClass::kSkip) continue;
       const int first = (off[2] << 6) | (off[1] << 3) | off[0];
-      if (sub == BrickClass::kFreeSpace && job.colour_only) continue;
+      if (sub == BrickClass::kFreeSpace && colour_only) continue;
       if (sub == BrickClass::kFreeSpace) {
         free_space_update(tsdf, weight, base, first, kHalf, max_weight, full_weight, surface);
         observed = true;
@@ -421,29 +453,27 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
         for (int ly = 0; ly < kHalf; ++ly) {
           const std::size_t row = base + std::size_t(first + (lz << 6) + (ly << 3));
           RowProjection<Real> rp;
-          unsigned live = project_row(cam, py, step[0], near_z, rp);
+          const unsigned live = project_row(cam, py, step[0], near_z, row_depth, rp);
           for (int r = 0; r < 3; ++r) py[r] += step[1][r];
 #pragma GCC unroll 4
           for (int lx = 0; lx < kRowLanes; ++lx) {
             if (((live >> lx) & 1u) == 0) continue;
             const Real pu = rp.pu[lx], pv = rp.pv[lx], vz = rp.z[lx];
             const int iu = rp.iu[lx], iv = rp.iv[lx];
-            // Cheap exits on the nearest pixel before interpolating: no data; certainly occluded
-            // (an interpolated depth is at most a depth jump beyond the nearest pixel's);
-            // certainly free space (every pixel around is at least trunc beyond the voxel).
+            // Cheap exits on the nearest pixel before interpolating: no data and certainly
+            // occluded (project_row: the lane is not in `live`); certainly free space (every
+            // pixel around is at least trunc beyond the voxel).
             const std::ptrdiff_t pix = rp.pix[lx];
-            const uint16_t nearest = dl.px[pix];
-            if (nearest == 0) continue;
-            const Real z_near = scale.metres(nearest);
-            if (z_near + jump - vz < minus_rho) continue;
+            const uint16_t nearest = uint16_t(rp.nearest[lx]);
+            const Real z_near = rp.z_near[lx];
             const std::size_t idx = row + std::size_t(lx);
             if (colour_only && (colour == nullptr || weight[idx] == 0)) continue;
             // The tile's neighbourhood minimum is at most the nearest pixel's depth, so a voxel less
             // than trunc in front of its nearest pixel cannot pass the free-space test: the tile is
             // read only for the others (same decisions, monotone roundings).
             if (z_near - vz >= trunc &&
-                scale.metres(tiles[std::size_t(iv >> 3) * tiles_x + std::size_t(iu >> 3)].near_raw) - vz >= trunc &&
-                z_near <= max_z && z_near >= min_z) {
+                tile_near(tiles[lane_tile(rp, lx, tiles_x_i)], scale) - vz >= trunc &&
+                uint32_t(nearest) - raw_lo <= raw_span) {  // min_z <= z_near <= max_z
               if (colour_only) continue;
               const int32_t old_w = weight[idx];
               if (old_w == max_weight && tsdf[idx] == kTsdfMax) continue;
@@ -451,14 +481,16 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               tsdf[idx] = int16_t(value);
               weight[idx] = cap_weight(old_w + full_weight, max_weight);
               observed = true;
-              surface = surface || value < kTsdfMax;
+              surface |= value < kTsdfMax;
               continue;
             }
             Real z;
-            if (!depth_at(dl, pu, pv, iu, iv, pix, nearest, z)) continue;
+            int u0, v0, win;
+            lane_floor(rp, lx, cam.stride, u0, v0, win);
+            if (!depth_at(dl, pu, pv, u0, v0, win, nearest, z)) continue;
             if (z < min_z || z > max_z) continue;
             // Eq. (1): (measured range) - (voxel range) along the ray = (z - p.z) |ray|.
-            const Real d = (z - vz) * ray_norms.at(iu, iv);
+            const Real d = (z - vz) * (kExtras ? ray_norms.at(iu, iv) : ray_norms.data[pix]);
             if (d <= minus_rho) continue;
             // Eq. (2) from the table: full weight in front of -eps.
             int32_t w = full_weight;
@@ -481,7 +513,8 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
               tsdf[idx] = int16_t(value);
               weight[idx] = cap_weight(old_w + w, max_weight);
               observed = true;
-              surface = surface || (value < kTsdfMax && value > -kTsdfMax);
+              // -kTsdfMax < value < kTsdfMax, without a branch
+              surface |= uint32_t(value + (kTsdfMax - 1)) < uint32_t(2 * kTsdfMax - 1);
             }
 
             if (colour != nullptr && d < colour_band && d > minus_colour_band) {
@@ -506,6 +539,20 @@ void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::
     if (surface) flags[brick] |= kBrickSurface;
     if (observed && (flags[brick] & kBrickSurface)) block_mask::refresh(volume, brick);
   }
+}
+
+}  // namespace
+
+template <class Real>
+void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::size_t begin, std::size_t end) {
+  const bool with_colour = !job.frame.colour.empty() && volume.colour() != nullptr;
+  const bool extras = job.colour_only || !job.frame.trust.empty() || job.ray_norms.stride != job.frame.depth.stride;
+  if (with_colour)
+    extras ? integrate_bricks_as<Real, true, true>(volume, job, begin, end)
+           : integrate_bricks_as<Real, true, false>(volume, job, begin, end);
+  else
+    extras ? integrate_bricks_as<Real, false, true>(volume, job, begin, end)
+           : integrate_bricks_as<Real, false, false>(volume, job, begin, end);
 }
 
 void finish_integration(TsdfVolume& volume, std::size_t count) {

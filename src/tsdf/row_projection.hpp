@@ -30,6 +30,23 @@ struct RowProjection {
   int32_t iu[kRowLanes];   //!< nearest pixel
   int32_t iv[kRowLanes];
   int32_t pix[kRowLanes];  //!< its index in the depth image: iv * stride + iu
+  //! floor(pu), floor(pv): the top-left pixel of the bilinear window (float build; the fixed-point
+  //! build leaves them to lane_floor, which costs it a shift per voxel that reaches the lookup).
+  int32_t u0[kRowLanes];
+  int32_t v0[kRowLanes];
+  int32_t win[kRowLanes];  //!< index of pixel (u0, v0) in the depth image (float build)
+  int32_t tile[kRowLanes];     //!< index of the nearest pixel's 8x8 depth tile (float build)
+  int32_t nearest[kRowLanes];  //!< raw depth of the nearest pixel
+  Real z_near[kRowLanes];      //!< the same in metres
+};
+
+//! What the nearest-pixel tests of a row read.
+template <class Real>
+struct RowDepth {
+  const uint16_t* px;      //!< depth pixels (index pix)
+  DepthScale<Real> scale;  //!< raw depth -> metres
+  Real jump;               //!< largest depth step interpolated across, metres
+  Real minus_rho;          //!< -rho: a voxel further behind every depth it may read is not updated
 };
 
 //! Pinhole projection parameters of one frame, in the kernel scalar.
@@ -39,6 +56,8 @@ struct LaneCamera {
   int width, height;    //!< image size in pixels
   float width_f, height_f;  //!< the same as floats (exact)
   int stride;           //!< depth image row stride in pixels
+  float stride_f;       //!< the same as a float (exact; stride * height < 2^24, see project_row)
+  float tiles_x_f;      //!< 8x8-pixel depth tiles per image row, as a float
 };
 
 namespace lanes_detail {
@@ -55,15 +74,18 @@ inline unsigned mask_of(I4 m) {
 }
 }  // namespace lanes_detail
 
-//! Projects the 4 voxels p0 + k s (k = 0..3). Returns a lane mask: bit k is set when voxel k lies
-//! at least `near_z` in front of the sensor and its nearest pixel is inside the image.
+//! Projects the 4 voxels p0 + k s (k = 0..3) and reads their nearest pixels. Returns a lane mask:
+//! bit k is set when voxel k lies at least `near_z` in front of the sensor, its nearest pixel is
+//! inside the image and holds a depth, and the voxel is not certainly occluded (more than rho
+//! behind that depth plus a depth jump: an interpolated depth is at most a jump beyond it).
 //! \param cam projection parameters
 //! \param p0 camera-frame centre of the row's first voxel
 //! \param s camera-frame step from one voxel of the row to the next
 //! \param near_z voxels closer than this are not projected
-//! \param out projections of the live lanes
+//! \param depth the depth image and the occlusion test's constants
+//! \param out projections and nearest depths of the lanes in the mask
 inline unsigned project_row(const LaneCamera<float>& cam, const float p0[3], const float s[3], float near_z,
-                            RowProjection<float>& out) {
+                            const RowDepth<float>& depth, RowProjection<float>& out) {
   using namespace lanes_detail;
   // Lane k = p0 + s added k times, as a chain of vector additions that adds s (or 0) per lane:
   // the same roundings as p, p + s, (p + s) + s, ... (p0 + 0 = p0; a -0 turning +0 projects alike).
@@ -85,7 +107,26 @@ inline unsigned project_row(const LaneCamera<float>& cam, const float p0[3], con
   // Dead lanes are converted from 0: their coordinates may be out of int range.
   const I4 iu = __builtin_convertvector(live ? su : zero, I4);
   const I4 iv = __builtin_convertvector(live ? sv : zero, I4);
-  const I4 pix = iv * cam.stride + iu;
+  const F4 iu_f = __builtin_convertvector(iu, F4), iv_f = __builtin_convertvector(iv, F4);
+  // The pixel index in float: exact while stride * height < 2^24 (4096 x 4096), and SSE2 has no
+  // 32-bit integer multiply (GCC emulates it with two 64-bit multiplies and three shuffles).
+  const I4 pix = __builtin_convertvector(iv_f * cam.stride_f + iu_f, I4);
+  // floor(x) from the nearest pixel i = int(x + 0.5), which is floor(x) or floor(x) + 1 for a
+  // live lane (x >= -0.5): one less when x < i. The same integers as floor_int, per lane in the
+  // vector instead of two conversions and a compare per voxel in the bilinear lookup. (A scalar
+  // select `i - (x < i)` was compiled as a branch, round 5.)
+  const I4 below_u = pu < iu_f, below_v = pv < iv_f;  // lanes 0 or -1
+  const I4 u0 = iu + below_u, v0 = iv + below_v;
+  const I4 win = pix + below_u - (below_v & I4{cam.stride, cam.stride, cam.stride, cam.stride});
+  // The nearest pixels' depths and the first two exits of the voxel loop (no depth; occluded) for
+  // the 4 lanes at once: the same operations per lane as the scalar tests, one mask test per
+  // voxel instead of two data-dependent branches. Dead lanes read pixel 0 (their index is 0).
+  const I4 nearest = {depth.px[pix[0]], depth.px[pix[1]], depth.px[pix[2]], depth.px[pix[3]]};
+  const F4 z_near = __builtin_convertvector(nearest, F4) * depth.scale.inv;
+  const I4 keep = live & (nearest != 0) & ((z_near + depth.jump) - z >= depth.minus_rho);
+  // The 8x8 tile of the nearest pixel (free-space test), in float like pix.
+  const I4 tile = __builtin_convertvector(__builtin_convertvector(iv >> 3, F4) * cam.tiles_x_f +
+                                              __builtin_convertvector(iu >> 3, F4), I4);
   for (int k = 0; k < kRowLanes; ++k) {
     out.z[k] = z[k];
     out.pu[k] = pu[k];
@@ -93,13 +134,19 @@ inline unsigned project_row(const LaneCamera<float>& cam, const float p0[3], con
     out.iu[k] = iu[k];
     out.iv[k] = iv[k];
     out.pix[k] = pix[k];
+    out.u0[k] = u0[k];
+    out.v0[k] = v0[k];
+    out.win[k] = win[k];
+    out.tile[k] = tile[k];
+    out.nearest[k] = nearest[k];
+    out.z_near[k] = z_near[k];
   }
-  return mask_of(live);
+  return mask_of(keep);
 }
 
 //! Fixed point: the same lane by lane.
 inline unsigned project_row(const LaneCamera<Fixed>& cam, const Fixed p0[3], const Fixed s[3], Fixed near_z,
-                            RowProjection<Fixed>& out) {
+                            const RowDepth<Fixed>& depth, RowProjection<Fixed>& out) {
   unsigned live = 0;
   Fixed p[3] = {p0[0], p0[1], p0[2]};
   for (int k = 0; k < kRowLanes; ++k, p[0] += s[0], p[1] += s[1], p[2] += s[2]) {
@@ -113,17 +160,44 @@ inline unsigned project_row(const LaneCamera<Fixed>& cam, const Fixed p0[3], con
     out.iu[k] = iu;
     out.iv[k] = iv;
     out.pix[k] = iv * cam.stride + iu;
+    const uint16_t nearest = depth.px[out.pix[k]];
+    if (nearest == 0) continue;
+    const Fixed z_near = depth.scale.metres(nearest);
+    if (z_near + depth.jump - p[2] < depth.minus_rho) continue;
+    out.nearest[k] = nearest;
+    out.z_near[k] = z_near;
     live |= 1u << k;
   }
   return live;
+}
+
+//! floor(pu) and floor(pv) of live lane k and the index of that pixel in the depth image:
+//! precomputed in the float build, computed here in Q16.16.
+inline void lane_floor(const RowProjection<float>& rp, int k, int /*stride*/, int& u0, int& v0, int& win) {
+  u0 = rp.u0[k];
+  v0 = rp.v0[k];
+  win = rp.win[k];
+}
+inline void lane_floor(const RowProjection<Fixed>& rp, int k, int stride, int& u0, int& v0, int& win) {
+  u0 = floor_int(rp.pu[k]);
+  v0 = floor_int(rp.pv[k]);
+  win = rp.pix[k] - (rp.iu[k] - u0) - (rp.iv[k] - v0) * stride;
+}
+
+//! Index of lane k's 8x8 depth tile: precomputed in the float build, computed here in Q16.16.
+inline int lane_tile(const RowProjection<float>& rp, int k, int /*tiles_x*/) { return rp.tile[k]; }
+inline int lane_tile(const RowProjection<Fixed>& rp, int k, int tiles_x) {
+  return (rp.iv[k] >> 3) * tiles_x + (rp.iu[k] >> 3);
 }
 
 //! Image-space bounds of a box's 8 corners.
 template <class Real>
 struct BoxBounds {
   Real z_lo, z_hi;  //!< camera-frame z range
-  Real u_lo, u_hi;  //!< image coordinate ranges, clamped to +-2^20 pixels
-  Real v_lo, v_hi;
+  //! Pixels a voxel of the box may read: floor(u_lo) - 1 .. floor(u_hi) + 2 (bilinear reaches one
+  //! pixel further), likewise in v; u_lo, u_hi, v_lo, v_hi are the projected corners' ranges,
+  //! u_lo and v_lo at most 2^20, u_hi and v_hi at least -2^20.
+  int a0, a1, b0, b1;
 };
 
 //! Projects the 8 corners c0 + the spans of the set bits of k (added in axis order: corner 3 =
@@ -147,27 +221,44 @@ inline bool project_box(const LaneCamera<float>& cam, const float c0[3], const f
   const F4 inv_lo = 1.0f / lo[2], inv_hi = 1.0f / hi[2];
   const F4 u_a = cam.fx * (lo[0] * inv_lo) + cam.cx, u_b = cam.fx * (hi[0] * inv_hi) + cam.cx;
   const F4 v_a = cam.fy * (lo[1] * inv_lo) + cam.cy, v_b = cam.fy * (hi[1] * inv_hi) + cam.cy;
-  // Lane-wise minimum / maximum of the two groups, then across the lanes (order-free: min and
-  // max of the same values are the same values).
+  // Lane-wise minimum / maximum of the two groups, then across the lanes by two shuffles each
+  // (order-free: min and max of the same values are the same values; the corners are finite, in
+  // front of the sensor). The image bounds are clamped to +-2^20 as before.
   const F4 z_min = lo[2] < hi[2] ? lo[2] : hi[2], z_max = lo[2] > hi[2] ? lo[2] : hi[2];
   const F4 u_min = u_a < u_b ? u_a : u_b, u_max = u_a > u_b ? u_a : u_b;
   const F4 v_min = v_a < v_b ? v_a : v_b, v_max = v_a > v_b ? v_a : v_b;
-  auto lane_min = [](F4 a, float init) {
-    float m = init;
-    for (int k = 0; k < 4; ++k) m = a[k] < m ? a[k] : m;
-    return m;
+  const I4 swap_pairs = {2, 3, 0, 1}, swap_lanes = {1, 0, 3, 2};
+  auto lane_min = [&](F4 a) {
+    a = a < __builtin_shuffle(a, swap_pairs) ? a : __builtin_shuffle(a, swap_pairs);
+    a = a < __builtin_shuffle(a, swap_lanes) ? a : __builtin_shuffle(a, swap_lanes);
+    return a[0];
   };
-  auto lane_max = [](F4 a, float init) {
-    float m = init;
-    for (int k = 0; k < 4; ++k) m = a[k] > m ? a[k] : m;
-    return m;
+  auto lane_max = [&](F4 a) {
+    a = a > __builtin_shuffle(a, swap_pairs) ? a : __builtin_shuffle(a, swap_pairs);
+    a = a > __builtin_shuffle(a, swap_lanes) ? a : __builtin_shuffle(a, swap_lanes);
+    return a[0];
   };
-  out.z_lo = lane_min(z_min, c0[2]);
-  out.z_hi = lane_max(z_max, c0[2]);
-  out.u_lo = lane_min(u_min, float(1 << 20));
-  out.u_hi = lane_max(u_max, -float(1 << 20));
-  out.v_lo = lane_min(v_min, float(1 << 20));
-  out.v_hi = lane_max(v_max, -float(1 << 20));
+  out.z_lo = lane_min(z_min);
+  out.z_hi = lane_max(z_max);
+  // The four image bounds at once: rows (u_min, v_min, -u_max, -v_max) transposed, so that lane-
+  // wise minima give (u_lo, v_lo, -u_hi, -v_hi) (a maximum is minus the minimum of the negated
+  // values, exactly), clamped by one minimum with 2^20, signs restored, floored (trunc, one less
+  // where that is above: the same integers as floor_int) and widened by the bilinear margin.
+  const F4 n_u = -u_max, n_v = -v_max;
+  const F4 t0 = __builtin_shuffle(u_min, v_min, I4{0, 4, 1, 5}), t1 = __builtin_shuffle(u_min, v_min, I4{2, 6, 3, 7});
+  const F4 t2 = __builtin_shuffle(n_u, n_v, I4{0, 4, 1, 5}), t3 = __builtin_shuffle(n_u, n_v, I4{2, 6, 3, 7});
+  const F4 k0 = __builtin_shuffle(t0, t2, I4{0, 1, 4, 5}), k1 = __builtin_shuffle(t0, t2, I4{2, 3, 6, 7});
+  const F4 k2 = __builtin_shuffle(t1, t3, I4{0, 1, 4, 5}), k3 = __builtin_shuffle(t1, t3, I4{2, 3, 6, 7});
+  auto vmin = [](F4 a, F4 b) { return a < b ? a : b; };
+  const F4 kBound = {float(1 << 20), float(1 << 20), float(1 << 20), float(1 << 20)};
+  const F4 bounds = vmin(vmin(vmin(k0, k1), vmin(k2, k3)), kBound) * F4{1.0f, 1.0f, -1.0f, -1.0f};
+  const I4 t = __builtin_convertvector(bounds, I4);
+  const I4 fl = t + (bounds < __builtin_convertvector(t, F4));
+  const I4 px = fl + I4{-1, -1, 2, 2};
+  out.a0 = px[0];
+  out.b0 = px[1];
+  out.a1 = px[2];
+  out.b1 = px[3];
   return true;
 }
 
@@ -183,8 +274,8 @@ inline bool project_box(const LaneCamera<Fixed>& cam, const Fixed c0[3], const F
     for (int k = 0; k < 4; ++k) corner[k + 4][r] = corner[k][r] + span[2][r];
   }
   out.z_lo = out.z_hi = c0[2];
-  out.u_lo = out.v_lo = Fixed::from_int(1 << 20);
-  out.u_hi = out.v_hi = Fixed::from_int(-(1 << 20));
+  Fixed u_lo = Fixed::from_int(1 << 20), v_lo = u_lo;
+  Fixed u_hi = Fixed::from_int(-(1 << 20)), v_hi = u_hi;
   for (int k = 0; k < 8; ++k) {
     const Fixed* p = corner[k];
     if (p[2] < near_z) return false;
@@ -192,11 +283,15 @@ inline bool project_box(const LaneCamera<Fixed>& cam, const Fixed c0[3], const F
     const Fixed u = cam.fx * (p[0] * inv_z) + cam.cx, v = cam.fy * (p[1] * inv_z) + cam.cy;
     out.z_lo = p[2] < out.z_lo ? p[2] : out.z_lo;
     out.z_hi = p[2] > out.z_hi ? p[2] : out.z_hi;
-    out.u_lo = u < out.u_lo ? u : out.u_lo;
-    out.u_hi = u > out.u_hi ? u : out.u_hi;
-    out.v_lo = v < out.v_lo ? v : out.v_lo;
-    out.v_hi = v > out.v_hi ? v : out.v_hi;
+    u_lo = u < u_lo ? u : u_lo;
+    u_hi = u > u_hi ? u : u_hi;
+    v_lo = v < v_lo ? v : v_lo;
+    v_hi = v > v_hi ? v : v_hi;
   }
+  out.a0 = floor_int(u_lo) - 1;
+  out.a1 = floor_int(u_hi) + 2;
+  out.b0 = floor_int(v_lo) - 1;
+  out.b1 = floor_int(v_hi) + 2;
   return true;
 }
 

@@ -22,6 +22,9 @@ struct DepthTile {
   uint8_t all_valid2 = 0;
   uint16_t min_raw2 = 0;
   uint16_t max_raw2 = 0;
+  //! near_raw in metres (float(near_raw) / depth scale, as the float kernel converts a raw depth):
+  //! the voxel loop's free-space test reads it for most voxels of the surface band.
+  float near_m = 0.0f;
 };
 
 struct FrameScratch {

@@ -82,6 +82,8 @@ struct IntegrationJob {
   bool colour_only = false;
   uint32_t jump_raw = 0;     //!< raw depth difference counted as a discontinuity (frame.jump_m, else trunc)
   int32_t sub_unit_fill = kWeightUnitsPerSample;  //!< frame.sub_unit_fill_units
+  //! Raw depths r with min_z <= metres(r) <= max_z: r - raw_in_range_lo <= raw_in_range_span (unsigned)
+  uint32_t raw_in_range_lo = 0, raw_in_range_span = 0;
   Real jump;                 //!< the same in metres
   DepthFrame frame;
   ImageView<const Real> ray_norms;
