@@ -150,7 +150,7 @@ Status prepare_raycast(const TsdfVolume& volume, const PinholeIntrinsics& intr, 
     return Status::kInvalidArgument;
   if (volume.dim() > kRaycastDimMax) return Status::kCapacityExceeded;
 
-  // The bounds live in the depth map itself (raycast_bounds.hpp): no tiles of the scratch.
+  // The bounds live in the depth map itself (raycast_bounds.hpp): no memory of their own.
   raycast_bounds::clear(maps.depth_m);
   const Pose T_cam_world = T_world_cam.inverse();
   const float vs = volume.voxel_m();
