@@ -1,6 +1,17 @@
 # Helpers shared by the ctest scripts that drive the edgefuse CLI on a rig set (fusion3_cli.cmake,
-# fusion4_cli.cmake). include() it after the script's own "data set present?" check: a return()
-# in an included file would only leave the include, not skip the test.
+# fusion4_cli.cmake, fusion5_cli.cmake).
+
+# Skips the test when the rig set is missing, else empties the scratch folder WORK. A macro, not a
+# function: its return() leaves the calling script (a return() in an included file or a function
+# would only leave those).
+macro(begin_rig_script rig)
+  if(NOT EXISTS ${rig}/rig.toml)
+    message(STATUS "skipped: ${rig} not found (set EDGEFUSE_SHARED_DATA)")
+    return()
+  endif()
+  file(REMOVE_RECURSE ${WORK})
+  file(MAKE_DIRECTORY ${WORK})
+endmacro()
 
 # Runs a command; fails the test with its output when it exits non-zero, else stores stdout.
 function(run_ok out_var)

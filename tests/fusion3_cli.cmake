@@ -5,15 +5,9 @@
 #  - `edgefuse calibrate --store DIR`: a new store gets seq 1 in calib_a.bin, the next save seq 2 in
 #    calib_b.bin; a store with no valid slot is refused, naming the slot file, and left as it was.
 # Variables: EDGEFUSE (CLI), DATA (shared data folder), WORK (scratch folder).
-set(RIG ${DATA}/bin_rig_a)
-if(NOT EXISTS ${RIG}/rig.toml)
-  message(STATUS "skipped: ${RIG} not found (set EDGEFUSE_SHARED_DATA)")
-  return()
-endif()
-file(REMOVE_RECURSE ${WORK})
-file(MAKE_DIRECTORY ${WORK})
-
 include(${CMAKE_CURRENT_LIST_DIR}/cli_script_helpers.cmake)
+set(RIG ${DATA}/bin_rig_a)
+begin_rig_script(${RIG})
 
 set(fuse ${EDGEFUSE} fuse ${RIG} --sensors xtion,tof,laser --frames 5 --laser-offset 0.002,-0.0015,0.001,0,0,0)
 run_ok(plain ${fuse} --out ${WORK}/plain.ply)

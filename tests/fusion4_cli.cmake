@@ -5,15 +5,9 @@
 #    `--min-support 0` (and both more than zero);
 #  - a bad value is refused naming the option.
 # Variables: EDGEFUSE (CLI), DATA (shared data folder), WORK (scratch folder).
-set(RIG ${DATA}/bin_rig_a)
-if(NOT EXISTS ${RIG}/rig.toml)
-  message(STATUS "skipped: ${RIG} not found (set EDGEFUSE_SHARED_DATA)")
-  return()
-endif()
-file(REMOVE_RECURSE ${WORK})
-file(MAKE_DIRECTORY ${WORK})
-
 include(${CMAKE_CURRENT_LIST_DIR}/cli_script_helpers.cmake)
+set(RIG ${DATA}/bin_rig_a)
+begin_rig_script(${RIG})
 
 set(fuse ${EDGEFUSE} fuse ${RIG} --sensors xtion,tof --frames 5 --origin -0.256,-0.256,-0.2)
 run_ok(def ${fuse} --out ${WORK}/default.ply)

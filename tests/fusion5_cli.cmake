@@ -9,15 +9,9 @@
 # (Round 5 expected support 9 for the default of xtion,tof; round 5b's default changed that, see
 # BENCHMARKS "Multi-sensor fusion, round 5b".)
 # Variables: EDGEFUSE (CLI), DATA (shared data folder), WORK (scratch folder).
-set(RIG ${DATA}/bin_rig_a)
-if(NOT EXISTS ${RIG}/rig.toml)
-  message(STATUS "skipped: ${RIG} not found (set EDGEFUSE_SHARED_DATA)")
-  return()
-endif()
-file(REMOVE_RECURSE ${WORK})
-file(MAKE_DIRECTORY ${WORK})
-
 include(${CMAKE_CURRENT_LIST_DIR}/cli_script_helpers.cmake)
+set(RIG ${DATA}/bin_rig_a)
+begin_rig_script(${RIG})
 
 set(fuse ${EDGEFUSE} fuse ${RIG} --frames 5 --origin -0.256,-0.256,-0.2)
 run_ok(ev ${fuse} --sensors xtion,tof --out ${WORK}/evidence.ply --mesh ${WORK}/evidence_mesh.ply)
