@@ -153,22 +153,25 @@ def truth(rig):
 
 
 def run(cmd):
-    t0 = time.process_time()
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         sys.exit("failed: %s\n%s%s" % (" ".join(cmd), r.stdout, r.stderr))
     return r.stdout
 
 
-def main():
-    here = os.path.dirname(os.path.abspath(__file__))
-    repo = os.path.dirname(os.path.dirname(here))
-    ap = argparse.ArgumentParser()
+def add_rig_arguments(ap, workdir):
+    """--rig, --edgefuse, --origin and --workdir (build/host/WORKDIR) with this repository's defaults."""
+    repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     ap.add_argument("--rig", default=os.path.join(repo, "..", "shared", "data", "bin_rig_a"))
     ap.add_argument("--edgefuse", default=os.path.join(repo, "build", "host", "tools", "edgefuse"))
-    ap.add_argument("--frames", type=int, default=20)
     ap.add_argument("--origin", default="-0.256,-0.256,-0.2")
-    ap.add_argument("--workdir", default=os.path.join(repo, "build", "host", "fusion_bench"))
+    ap.add_argument("--workdir", default=os.path.join(repo, "build", "host", workdir))
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    add_rig_arguments(ap, "fusion_bench")
+    ap.add_argument("--frames", type=int, default=20)
     a = ap.parse_args()
     os.makedirs(a.workdir, exist_ok=True)
     ef = a.edgefuse

@@ -17,36 +17,27 @@ Since round 5b a mixed set's sub-unit samples fill a voxel only to 3 units (fusi
 """
 import argparse
 import os
-import subprocess
 import sys
 
 import numpy as np
 import open3d as o3d
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from fusion_bench import truth  # noqa: E402
+from fusion_bench import add_rig_arguments, run, truth  # noqa: E402
 
 
 def fuse(ef, rig, sensors, opts, origin, path):
-    r = subprocess.run([ef, "fuse", rig, "--sensors", sensors, "--origin", origin, "--out", path] + opts,
-                       capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit("failed: %s %s\n%s%s" % (sensors, " ".join(opts), r.stdout, r.stderr))
+    run([ef, "fuse", rig, "--sensors", sensors, "--origin", origin, "--out", path] + opts)
     return o3d.io.read_point_cloud(path)
 
 
 def main():
-    here = os.path.dirname(os.path.abspath(__file__))
-    repo = os.path.dirname(os.path.dirname(here))
     ap = argparse.ArgumentParser()
-    ap.add_argument("--rig", default=os.path.join(repo, "..", "shared", "data", "bin_rig_a"))
-    ap.add_argument("--edgefuse", default=os.path.join(repo, "build", "host", "tools", "edgefuse"))
-    ap.add_argument("--origin", default="-0.256,-0.256,-0.2")
+    add_rig_arguments(ap, "fusion_sweep")
     ap.add_argument("--support", default="0,1,2,3,4,5,6,8,9,12,16,24,32")
     ap.add_argument("--min-weight", default="0,4,8,9,16,32")
     ap.add_argument("--sensors", default="xtion;xtion,tof,laser;xtion,laser;tof")
     ap.add_argument("--extra", default="", help="extra fuse options for every run (space separated)")
-    ap.add_argument("--workdir", default=os.path.join(repo, "build", "host", "fusion_sweep"))
     a = ap.parse_args()
     os.makedirs(a.workdir, exist_ok=True)
     mesh, scene, vis, vis_pc = truth(a.rig)
