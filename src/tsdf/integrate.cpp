@@ -241,6 +241,18 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const LaneCamera<Real>&
   return BrickClass::kVoxels;
 }
 
+// The first raw depth (0..65535, or 65536 for none) whose metres satisfy `pred`, which must be
+// monotone in the depth (false below some raw value, true from it on): a binary search.
+template <class Real, class Pred>
+uint32_t first_raw_where(const DepthScale<Real>& scale, Pred pred) {
+  uint32_t lo = 0, hi = 65536;
+  while (lo < hi) {
+    const uint32_t mid = (lo + hi) / 2;
+    if (pred(scale.metres(uint16_t(mid)))) hi = mid; else lo = mid + 1;
+  }
+  return lo;
+}
+
 }  // namespace
 
 template <class Real>
@@ -295,18 +307,10 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
   job.sub_unit_fill = frame.sub_unit_fill_units;
   // Raw depths whose metres lie in [min_z, max_z]: an interval, as metres() is monotone.
   {
-    uint32_t lo = 0, hi = 65536;  // first raw at or above min_z
-    while (lo < hi) {
-      const uint32_t mid = (lo + hi) / 2;
-      if (job.depth.metres(uint16_t(mid)) >= job.min_z) hi = mid; else lo = mid + 1;
-    }
-    uint32_t lo2 = 0, hi2 = 65536;  // first raw above max_z
-    while (lo2 < hi2) {
-      const uint32_t mid = (lo2 + hi2) / 2;
-      if (job.depth.metres(uint16_t(mid)) > job.max_z) hi2 = mid; else lo2 = mid + 1;
-    }
-    job.raw_in_range_lo = lo < lo2 ? lo : 0x10000u;  // empty: no raw passes
-    job.raw_in_range_span = lo < lo2 ? lo2 - 1 - lo : 0u;
+    const uint32_t lo = first_raw_where(job.depth, [&](Real m) { return m >= job.min_z; });
+    const uint32_t end = first_raw_where(job.depth, [&](Real m) { return m > job.max_z; });
+    job.raw_in_range_lo = lo < end ? lo : 0x10000u;  // empty: no raw passes
+    job.raw_in_range_span = lo < end ? end - 1 - lo : 0u;
   }
   job.frame = frame;
   job.ray_norms = ray_norms;
