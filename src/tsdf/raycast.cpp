@@ -6,6 +6,7 @@
 #include <type_traits>
 
 #include "kernel_math.hpp"
+#include "lanes.hpp"
 #include "raycast_bounds.hpp"
 #include "tsdf_sampler.hpp"
 
@@ -230,12 +231,9 @@ bool sample_tsdf(const TsdfVolume& volume, const Vec3f& p_world, float& d_m) {
 namespace {
 
 namespace cell_lanes {
-// GCC vector extensions (SSE2 on x86-64, NEON on aarch64, scalar code elsewhere), as in
-// row_projection.hpp: the float build converts and interpolates a cell's corners 4 lanes at once.
-typedef float F4 __attribute__((vector_size(16)));
-typedef int32_t I4 __attribute__((vector_size(16)));
-typedef int16_t S8 __attribute__((vector_size(16)));
-typedef uint64_t U2 __attribute__((vector_size(16)));
+// GCC vector extensions (lanes.hpp): the float build converts and interpolates a cell's corners
+// 4 lanes at once.
+using namespace lane_types;
 }  // namespace cell_lanes
 
 // The 8 corner values of one trilinear cell as the march reads them (corner i: +x for bit 0, +y

@@ -21,6 +21,7 @@
 #include "edgefuse/math/pose.hpp"
 #include "edgefuse/sensor/pinhole.hpp"
 #include "edgefuse/tsdf/volume.hpp"
+#include "lanes.hpp"
 
 namespace edgefuse {
 namespace raycast_bounds {
@@ -57,16 +58,10 @@ inline int16_t far_half(int32_t far_q) { return int16_t(32767 - far_q); }
 // has cleared them).
 using alias_i16 = int16_t __attribute__((__may_alias__));
 
-// GCC vector extensions (SSE2 on x86-64, NEON on ARM, scalar code where neither exists), as in
-// row_projection.hpp: four blocks projected at once, eight int16 halves minimised at once.
+// GCC vector extensions (lanes.hpp): four blocks projected at once, eight int16 halves minimised
+// at once.
 namespace lanes {
-typedef float F4 __attribute__((vector_size(16)));
-typedef int32_t I4 __attribute__((vector_size(16)));
-typedef int16_t S8 __attribute__((vector_size(16)));
-inline F4 splat_f(float x) { return F4{x, x, x, x}; }
-inline I4 splat_i(int32_t x) { return I4{x, x, x, x}; }
-inline F4 min_f(F4 a, F4 b) { return a < b ? a : b; }
-inline F4 max_f(F4 a, F4 b) { return a > b ? a : b; }
+using namespace lane_types;
 inline S8 load8(const alias_i16* p) {
   S8 v;
   std::memcpy(&v, p, sizeof v);

@@ -16,6 +16,7 @@
 
 #include "edgefuse/math/real.hpp"
 #include "kernel_math.hpp"
+#include "lanes.hpp"
 
 namespace edgefuse {
 
@@ -61,8 +62,7 @@ struct LaneCamera {
 };
 
 namespace lanes_detail {
-typedef float F4 __attribute__((vector_size(16)));
-typedef int32_t I4 __attribute__((vector_size(16)));
+using namespace lane_types;  // lanes.hpp
 
 // Lane mask (bit k = lane k) of a comparison result (lanes 0 or -1): the lane bits ORed across
 // the vector by two shuffles, fewer instructions than extracting each lane.
