@@ -41,6 +41,7 @@ struct RayFrame {
   Real voxel, trunc;
   Real min_z, max_z;
   Real grid_max;        // last valid trilinear base coordinate + 1 (= dim - 1)
+  Real clip_max;        // rays are clipped to [0, clip_max] (float: 1/2048 voxel less, see start())
   Real fx_inv, fy_inv, cx, cy;
 };
 
@@ -57,6 +58,8 @@ RayFrame<Real> make_ray_frame(const TsdfVolume& volume, const PinholeIntrinsics&
   f.min_z = real_from<Real>(intr.min_range_m);
   f.max_z = real_from<Real>(intr.max_range_m);
   f.grid_max = real_from_int<Real>(volume.dim() - 1);
+  f.clip_max = f.grid_max;
+  if constexpr (std::is_same<Real, float>::value) f.clip_max = f.grid_max - 1.0f / 2048.0f;
   f.fx_inv = real_from<Real>(1.0f / intr.fx);
   f.fy_inv = real_from<Real>(1.0f / intr.fy);
   f.cx = real_from<Real>(intr.cx);
@@ -70,15 +73,19 @@ RayFrame<Real> make_ray_frame(const TsdfVolume& volume, const PinholeIntrinsics&
 // the fixed-point build divides. Axes the ray runs (nearly) parallel to are never crossed.
 template <class Real>
 struct RayDir {
-  Real gd[3];
-  Real inv[3];
-  bool crosses[3];
-  int exit_side[3];   // added to a brick's low face coordinate to get the face the ray leaves by
-  Real last_cell[3];  // t the ray takes to cross 1.01 voxels along each axis (crossed axes only)
-  void init(const Real d[3]) {
+  Real gd[3] = {};
+  // The rest is what face crossings need: brick skips and the clip to the grid, which most rays
+  // never do (prepare_crossings() runs on first need).
+  bool ready = false;       // the members below are set
+  Real inv[3] = {};
+  bool crosses[3] = {};
+  int exit_side[3] = {};    // added to a brick's low face coordinate to get the face the ray leaves by
+  Real last_cell[3] = {};   // t the ray takes to cross 1.01 voxels along each axis (crossed axes only)
+  void prepare_crossings() {
     const Real tiny = real_from<Real>(1e-4f);
+    ready = true;
+    const Real* d = gd;
     for (int a = 0; a < 3; ++a) {
-      gd[a] = d[a];
       crosses[a] = !(abs_r(d[a]) < tiny);
       exit_side[a] = d[a] > real_from_int<Real>(0) ? kBrickSide : 0;
       inv[a] = real_from_int<Real>(0);
@@ -104,11 +111,11 @@ bool clip_to_grid(const RayFrame<Real>& f, const RayDir<Real>& r, Real& t0, Real
   const Real zero = real_from_int<Real>(0);
   for (int a = 0; a < 3; ++a) {
     if (!r.crosses[a]) {
-      if (f.g0[a] < zero || !(f.g0[a] < f.grid_max)) return false;
+      if (f.g0[a] < zero || !(f.g0[a] < f.clip_max)) return false;
       continue;
     }
     Real ta = r.t_for(zero - f.g0[a], a);
-    Real tb = r.t_for(f.grid_max - f.g0[a], a);
+    Real tb = r.t_for(f.clip_max - f.g0[a], a);
     if (ta > tb) {
       const Real s = ta;
       ta = tb;
@@ -291,7 +298,7 @@ class RayMarcher {
         want_vertex_(!maps.vertex.empty()), want_normal_(!maps.normal.empty()), clear_colour_(!maps.colour.empty()),
         want_colour_(!maps.colour.empty() && volume.has_colour()) {
     for (int axis = 0; axis < 3; ++axis)
-      for (int c = 0; c < volume.dim(); ++c) axis_index_[axis][c] = axis_part(axis, uint32_t(c));
+      for (int c = 0; c < volume.dim(); ++c) axis_entry_[axis][c] = axis_entry(axis, uint32_t(c));
   }
 
   // Clears the vertex, normal and colour maps of rows [row_begin, row_end) (all-zero bytes are
@@ -321,9 +328,9 @@ class RayMarcher {
     // Ray (x, y, 1) in the camera frame: t along it is the z-depth.
     r.rx = (real_from_int<Real>(u) - f_.cx) * f_.fx_inv;
     r.ry = (real_from_int<Real>(v) - f_.cy) * f_.fy_inv;
-    Real gd[3];
+    Real* gd = r.dir.gd;
     for (int k = 0; k < 3; ++k) gd[k] = (f_.R[k * 3] * r.rx + f_.R[k * 3 + 1] * r.ry + f_.R[k * 3 + 2]) * f_.inv_voxel;
-    r.dir.init(gd);
+    r.dir.ready = false;
     const Real ray_norm = real_sqrt(r.rx * r.rx + r.ry * r.ry + one);
     r.z_per_m = one / ray_norm;
     r.min_step = half * f_.voxel * r.z_per_m;
@@ -332,12 +339,43 @@ class RayMarcher {
     r.far_step = max_r((f_.trunc - f_.voxel) * r.z_per_m, r.min_step);
     r.t = max_r(f_.min_z, real_from<Real>(near_m) - margin_);
     r.t_end = min_r(f_.max_z, real_from<Real>(far_m) + margin_);
-    if (!clip_to_grid(f_, r.dir, r.t, r.t_end)) return false;
+    // Most ranges lie inside the grid (they come from marked blocks): then the clip, which needs
+    // the crossing data (three divisions), would change nothing.
+    if (!(inside_clip_box(r, r.t) && inside_clip_box(r, r.t_end))) {
+      r.dir.prepare_crossings();
+      if (!clip_to_grid(f_, r.dir, r.t, r.t_end)) return false;
+    } else if (!(r.t < r.t_end)) {
+      return false;
+    }
     // Start and stop a little inside the grid: the clip is exact only up to rounding.
     r.t += r.nudge;
     r.t_end -= r.nudge;
+    if constexpr (std::is_same<Real, float>::value) {
+      // The float march reads cells without a bounds test: every sample's t lies in [t, t_end),
+      // and g = g0 + t gd, rounded, is monotonic in t, so every sample's g lies between the two
+      // ends' g computed here. Both ends inside (-1/2, grid_max - 1/8192) on every axis keep every
+      // sample's cell, int(g), in [0, dim - 2] (the margin covers a multiply-add fused at one of
+      // the two sites and not at the other: an ulp, 6e-5 at 1024). The clip box leaves 1/2048
+      // voxel for this, more than the clip's own rounding; a ray that fails anyway is not marched.
+      // (A wider box cut off crossings in the grid's last 1/32 voxel, e.g. of a plane lying
+      // there in test_tsdf_analytic.)
+      for (int a = 0; a < 3; ++a) {
+        const float lo = f_.g0[a] + r.t * gd[a], hi = f_.g0[a] + r.t_end * gd[a];
+        if (!(std::min(lo, hi) > -0.5f && std::max(lo, hi) < f_.grid_max - 1.0f / 8192.0f)) return false;
+      }
+    }
     r.prev_t = zero;
     r.prev_s = zero;
+    return true;
+  }
+
+  // True when the ray's point at z-depth t lies in the box clip_to_grid clips to.
+  bool inside_clip_box(const RayState<Real>& r, Real t) const {
+    const Real zero = real_from_int<Real>(0);
+    for (int a = 0; a < 3; ++a) {
+      const Real g = f_.g0[a] + t * r.dir.gd[a];
+      if (!(g > zero && g < f_.clip_max)) return false;
+    }
     return true;
   }
 
@@ -347,30 +385,30 @@ class RayMarcher {
   struct CellAddress {
     uint32_t base, dx, dy, dz;
   };
-  // Linear index of the cell's base voxel (its brick's flag is flags_[base >> 9]); the cell must
-  // lie in the grid. Three table reads instead of ~20 instructions of shifts and multiplications:
-  // it is computed for every sample.
-  uint32_t base_index(const int cell[3]) const {
-    return axis_index_[0][cell[0]] + axis_index_[1][cell[1]] + axis_index_[2][cell[2]];
-  }
-  // Part of the linear index contributed by coordinate c on `axis` (the sum over the axes is
-  // TsdfVolume::index).
-  uint32_t axis_part(int axis, uint32_t c) const {
-    const uint32_t bricks = axis == 0 ? 1u : (axis == 1 ? nb_ : nb2_);
-    return (((c >> 3) * bricks) << 9) | ((c & 7u) << (3 * axis));
-  }
-  // The neighbour offsets of a cell whose base index is known: computed only for the samples that
-  // read voxels, not for those that the brick flag alone decides.
-  CellAddress address(const int cell[3], uint32_t base) const {
-    const uint32_t x = uint32_t(cell[0]), y = uint32_t(cell[1]), z = uint32_t(cell[2]);
+  // The cell's address from three table reads (instead of ~30 instructions of shifts, masks and
+  // selects: it is computed for every sample). Each entry holds, for one coordinate c on one axis,
+  // the part of the linear index c contributes (low 32 bits; the sum over the axes is
+  // TsdfVolume::index, below 2^32, so the 64-bit sum does not carry into the high half) and the
+  // index offset from c to c + 1 (high 32 bits). The cell must lie in the grid.
+  CellAddress address(const int cell[3]) const {
+    const uint64_t ex = axis_entry_[0][cell[0]], ey = axis_entry_[1][cell[1]], ez = axis_entry_[2][cell[2]];
     CellAddress a;
-    a.base = base;
-    a.dx = (x & 7u) == 7u ? uint32_t(kBrickVoxels) - 7u : 1u;
-    a.dy = (y & 7u) == 7u ? dy_wrap_ : 8u;
-    a.dz = (z & 7u) == 7u ? dz_wrap_ : 64u;
+    a.base = uint32_t(ex + ey + ez);
+    a.dx = uint32_t(ex >> 32);
+    a.dy = uint32_t(ey >> 32);
+    a.dz = uint32_t(ez >> 32);
     return a;
   }
-  CellAddress address(const int cell[3]) const { return address(cell, base_index(cell)); }
+  // Linear index of the cell's base voxel (its brick's flag is flags_[base >> 9]).
+  uint32_t base_index(const int cell[3]) const { return address(cell).base; }
+  // The table entry of coordinate c on `axis` (see address()).
+  uint64_t axis_entry(int axis, uint32_t c) const {
+    const uint32_t bricks = axis == 0 ? 1u : (axis == 1 ? nb_ : nb2_);
+    const uint32_t part = (((c >> 3) * bricks) << 9) | ((c & 7u) << (3 * axis));
+    const uint32_t wrap[3] = {uint32_t(kBrickVoxels) - 7u, dy_wrap_, dz_wrap_};  // +1 from a brick's last voxel
+    const uint32_t step = (c & 7u) == 7u ? wrap[axis] : 1u << (3 * axis);
+    return uint64_t(part) | uint64_t(step) << 32;
+  }
   // True when the cell with base `cell` lies inside the grid (its +1 corners too).
   bool in_grid(const int cell[3]) const {
     return uint32_t(cell[0]) < last_ && uint32_t(cell[1]) < last_ && uint32_t(cell[2]) < last_;
@@ -451,9 +489,9 @@ class RayMarcher {
   bool sample(const Real g[3], const CellCorners<Real>& known, Real& out) const {
     const int cell[3] = {march_cell(g[0]), march_cell(g[1]), march_cell(g[2])};
     if (!in_grid(cell)) return false;
-    const uint32_t base = base_index(cell);
+    const CellAddress a = address(cell);
     CellCorners<Real> read;
-    const CellCorners<Real>* k = base == known.base ? &known : &load_corners(address(cell, base), read);
+    const CellCorners<Real>* k = a.base == known.base ? &known : &load_corners(a, read);
     if (!k->observed) return false;
     out = lerp_cell(*k, g[0] - real_from_int<Real>(cell[0]), g[1] - real_from_int<Real>(cell[1]),
                     g[2] - real_from_int<Real>(cell[2]));
@@ -469,16 +507,17 @@ class RayMarcher {
     const Real* gd = r.dir.gd;
     const Real g[3] = {f_.g0[0] + r.t * gd[0], f_.g0[1] + r.t * gd[1], f_.g0[2] + r.t * gd[2]};
     const int cell[3] = {march_cell(g[0]), march_cell(g[1]), march_cell(g[2])};
-    if (!in_grid(cell)) return MarchResult::kMiss;
-    const uint32_t base = base_index(cell);
-    const uint8_t bf = flags_[base >> 9];
+    // The float build proved every sample's cell inside the grid in start().
+    if (!std::is_same<Real, float>::value && !in_grid(cell)) return MarchResult::kMiss;
+    const CellAddress a = address(cell);
+    const uint8_t bf = flags_[a.base >> 9];
     if ((bf & (kBrickNearSurface | kBrickObserved)) != (kBrickNearSurface | kBrickObserved)) {
       // No surface in or next to this brick, or nothing observed in it (then every cell based
       // here has an unobserved corner): leave it whole.
       // A ray grazing a brick face can sit exactly on it: when the nudge is lost to rounding
       // (the exit is where we are), move on by half a voxel so the march always advances.
       int axis;
-      const Real t_next = brick_exit(f_, r.dir, cell, axis) + r.nudge;
+      const Real t_next = brick_exit(f_, crossings(r), cell, axis) + r.nudge;
       r.t = t_next > r.t + r.nudge ? t_next : r.t + r.min_step;
       r.prev_s = zero;
       return MarchResult::kGoing;
@@ -487,7 +526,7 @@ class RayMarcher {
       // Surface next door but none here: only the last cell before the exit face, which
       // reaches into the next brick, can hold a crossing. Go to one voxel before that face.
       int axis;
-      const Real t_exit = brick_exit(f_, r.dir, cell, axis);
+      const Real t_exit = brick_exit(f_, crossings(r), cell, axis);
       const Real t_last_cell = t_exit - r.dir.last_cell[axis];
       if (t_last_cell > r.t + r.min_step) {
         r.t = t_last_cell;
@@ -500,7 +539,6 @@ class RayMarcher {
     const Real fx = g[0] - real_from_int<Real>(cell[0]);
     const Real fy = g[1] - real_from_int<Real>(cell[1]);
     const Real fz = g[2] - real_from_int<Real>(cell[2]);
-    const CellAddress a = address(cell, base);
     const uint32_t ni = a.base + (fx < half ? 0u : a.dx) + (fy < half ? 0u : a.dy) + (fz < half ? 0u : a.dz);
     const int16_t nq = tsdf_[ni];
     if (nq == kTsdfUnobserved) {
@@ -560,6 +598,12 @@ class RayMarcher {
     // Step by the distance itself (the projective TSDF bounds the distance to the surface).
     r.t += max_r(abs_r(s) * f_.trunc * r.z_per_m, r.min_step);
     return MarchResult::kGoing;
+  }
+
+  // The ray's direction with its crossing data (computed on the first brick skip).
+  static const RayDir<Real>& crossings(RayState<Real>& r) {
+    if (!r.dir.ready) r.dir.prepare_crossings();
+    return r.dir;
   }
 
   // Writes the outputs of a ray that hit the surface at z-depth t_hit.
@@ -635,7 +679,7 @@ class RayMarcher {
   const uint32_t last_, nb_, nb2_, dy_wrap_, dz_wrap_;
   const Real margin_;
   const bool want_vertex_, want_normal_, clear_colour_, want_colour_;
-  uint32_t axis_index_[3][kRaycastDimMax];  // axis_part per coordinate (12 KiB of stack)
+  uint64_t axis_entry_[3][kRaycastDimMax];  // address() per coordinate (24 KiB of stack)
 };
 
 // Pixels are marched tile column by tile column (8 columns of the given rows at a time), so that
