@@ -238,6 +238,9 @@ class Localizer {
   bool vote_reference(int m, std::size_t r, std::size_t ns, uint16_t* votes, PoseCandidate& out) const;
   static void vote_job(void* self, std::size_t chunk);
   bool refine(int m, Pose& T, const LocalizeParams& params) const;
+  // Replaces verified hypothesis h of model m by a half-turned twin of it that explains the scene
+  // better (nearly symmetric shapes), if one does; true when it did.
+  bool try_flipped_twins(int m, const LocalizeParams& params, LocalizedObject& h) const;
   bool plausible(int m, const Pose& T, const LocalizeParams& params) const;
   void verify(int m, const Pose& T, const LocalizeParams& params, LocalizedObject& out, int claim_label,
               float* overlap) const;
