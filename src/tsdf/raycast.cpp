@@ -276,6 +276,7 @@ struct RayState {
   Real far_step;     // from a voxel at +trunc the surface is at least trunc - 1 voxel away
   Real prev_t;
   Real prev_s;  // the last sample's value when it can start a crossing, else 0 (no crossing next)
+  Real step_per_value;  // z-depth per value unit (value_one() = trunc) along this ray
 };
 
 enum class MarchResult { kGoing, kHit, kMiss };
@@ -337,6 +338,8 @@ class RayMarcher {
     r.nudge = real_from<Real>(1.0f / 64.0f) * f_.voxel * r.z_per_m;
     r.half_trunc = max_r(half * f_.trunc * r.z_per_m, r.min_step);
     r.far_step = max_r((f_.trunc - f_.voxel) * r.z_per_m, r.min_step);
+    r.step_per_value = f_.trunc * r.z_per_m;
+    if constexpr (std::is_same<Real, float>::value) r.step_per_value *= 1.0f / 32768.0f;
     r.t = max_r(f_.min_z, real_from<Real>(near_m) - margin_);
     r.t_end = min_r(f_.max_z, real_from<Real>(far_m) + margin_);
     // Most ranges lie inside the grid (they come from marked blocks): then the clip, which needs
@@ -424,6 +427,15 @@ class RayMarcher {
       return floor_int(v);
     }
   }
+  // The march's value of a distance of +trunc: 1 in Q16.16 (fractions of trunc), the stored
+  // integers' scale (kTsdfMax + 1) in float (see lerp_cell).
+  static Real value_one() {
+    if constexpr (std::is_same<Real, float>::value) {
+      return 32768.0f;
+    } else {
+      return real_from_int<Real>(1);
+    }
+  }
   // Reads the 8 corners of the cell at `a` into `out`.
   const CellCorners<Real>& load_corners(const CellAddress& a, CellCorners<Real>& out) const {
     const uint32_t i0 = a.base, i1 = i0 + a.dx, i2 = i0 + a.dy, i3 = i2 + a.dx;
@@ -466,16 +478,18 @@ class RayMarcher {
     }
     return out;
   }
-  // Trilinear TSDF (fraction of trunc) of an observed cell at offsets fx, fy, fz: the arithmetic of
-  // TsdfSampler::sample (in float on the stored integers, scaled once: scaling by a power of two
-  // commutes exactly with the lerps, so the value is bit-identical to scaling each corner first).
+  // Trilinear TSDF of an observed cell at offsets fx, fy, fz, in the march's value unit
+  // (value_one() per truncation): the arithmetic of TsdfSampler::sample. The float build works on
+  // the stored integers and never scales them: the march needs only signs, ratios of values
+  // (regula falsi) and the step per value unit, so the scaling (by a power of two, which commutes
+  // exactly with the lerps) would only lengthen every sample's dependency chain.
   static Real lerp_cell(const CellCorners<Real>& k, Real fx, Real fy, Real fz) {
     if constexpr (std::is_same<Real, float>::value) {
       using namespace cell_lanes;
       // Lanes: (c00, c10, c01, c11) = the x lerps of corner pairs (0,1), (2,3), (4,5), (6,7).
       const F4 x = k.x0 + (k.x1 - k.x0) * fx;
       const float c0 = x[0] + (x[1] - x[0]) * fy, c1 = x[2] + (x[3] - x[2]) * fy;
-      return (c0 + (c1 - c0) * fz) * (1.0f / 32768.0f);
+      return c0 + (c1 - c0) * fz;
     } else {
       const Real* c = k.c;
       const Real c00 = c[0] + (c[1] - c[0]) * fx, c10 = c[2] + (c[3] - c[2]) * fx;
@@ -498,11 +512,39 @@ class RayMarcher {
     return true;
   }
 
+  // The zero crossing between the last sample (prev_t, prev_s > 0) and this one (t, s <= 0, in
+  // cell k): regula falsi on the trilinear field.
+  Real refine(const RayState<Real>& r, const CellCorners<Real>& k, Real s) const {
+    const Real zero = real_from_int<Real>(0);
+    const Real* gd = r.dir.gd;
+    Real ta = r.prev_t, sa = r.prev_s, tb = r.t, sb = s;
+    for (int it = 0; it < 3; ++it) {
+      const Real tm = ta + (tb - ta) * (sa / (sa - sb));
+      const Real gm[3] = {f_.g0[0] + tm * gd[0], f_.g0[1] + tm * gd[1], f_.g0[2] + tm * gd[2]};
+      Real sm;
+      if (!sample(gm, k, sm)) break;
+      if constexpr (std::is_same<Real, float>::value) {
+        // Done when the next secant correction, |sm| / slope, is under 1/200 voxel (on a plane
+        // the first secant lands on the surface; the remaining iterations would only repeat it).
+        // Q16.16 cannot resolve that bound at millimetre voxels, so the fixed-point build
+        // always iterates.
+        if (abs_r(sm) * (tb - ta) < real_from<Real>(0.01f) * r.min_step * (sa - sb)) return tm;
+      }
+      if (sm > zero) {
+        ta = tm;
+        sa = sm;
+      } else {
+        tb = tm;
+        sb = sm;
+      }
+    }
+    return sa > sb ? ta + (tb - ta) * (sa / (sa - sb)) : ta;
+  }
+
   // One sample of the march (or the refinement of a crossing, which ends it).
   MarchResult step(RayState<Real>& r, Real& t_hit) const {
     const Real zero = real_from_int<Real>(0);
     const Real half = real_from<Real>(0.5f);
-    const Real one = real_from_int<Real>(1);
     if (!(r.t < r.t_end)) return MarchResult::kMiss;
     const Real* gd = r.dir.gd;
     const Real g[3] = {f_.g0[0] + r.t * gd[0], f_.g0[1] + r.t * gd[1], f_.g0[2] + r.t * gd[2]};
@@ -551,7 +593,7 @@ class RayMarcher {
     }
     if (nq == kTsdfMax) {
       r.prev_t = r.t;  // a +1 sample: the crossing, if next, lies between here and there
-      r.prev_s = one;
+      r.prev_s = value_one();
       r.t += r.far_step;
       return MarchResult::kGoing;
     }
@@ -565,38 +607,13 @@ class RayMarcher {
     const Real s = lerp_cell(k, fx, fy, fz);
     // One branch for both conditions (bitwise &): which sample ends the march is unpredictable.
     if ((r.prev_s > zero) & !(s > zero)) {
-      // Zero crossing between prev_t and t: regula falsi on the trilinear field.
-      Real ta = r.prev_t, sa = r.prev_s, tb = r.t, sb = s;
-      for (int it = 0; it < 3; ++it) {
-        const Real tm = ta + (tb - ta) * (sa / (sa - sb));
-        const Real gm[3] = {f_.g0[0] + tm * gd[0], f_.g0[1] + tm * gd[1], f_.g0[2] + tm * gd[2]};
-        Real sm;
-        if (!sample(gm, k, sm)) break;
-        if constexpr (std::is_same<Real, float>::value) {
-          // Done when the next secant correction, |sm| / slope, is under 1/200 voxel (on a plane
-          // the first secant lands on the surface; the remaining iterations would only repeat it).
-          // Q16.16 cannot resolve that bound at millimetre voxels, so the fixed-point build
-          // always iterates.
-          if (abs_r(sm) * (tb - ta) < real_from<Real>(0.01f) * r.min_step * (sa - sb)) {
-            t_hit = tm;
-            return MarchResult::kHit;
-          }
-        }
-        if (sm > zero) {
-          ta = tm;
-          sa = sm;
-        } else {
-          tb = tm;
-          sb = sm;
-        }
-      }
-      t_hit = sa > sb ? ta + (tb - ta) * (sa / (sa - sb)) : ta;
+      t_hit = refine(r, k, s);
       return MarchResult::kHit;
     }
     r.prev_t = r.t;
     r.prev_s = s;
     // Step by the distance itself (the projective TSDF bounds the distance to the surface).
-    r.t += max_r(abs_r(s) * f_.trunc * r.z_per_m, r.min_step);
+    r.t += max_r(abs_r(s) * r.step_per_value, r.min_step);
     return MarchResult::kGoing;
   }
 
