@@ -486,10 +486,15 @@ class RayMarcher {
   static Real lerp_cell(const CellCorners<Real>& k, Real fx, Real fy, Real fz) {
     if constexpr (std::is_same<Real, float>::value) {
       using namespace cell_lanes;
-      // Lanes: (c00, c10, c01, c11) = the x lerps of corner pairs (0,1), (2,3), (4,5), (6,7).
-      const F4 x = k.x0 + (k.x1 - k.x0) * fx;
-      const float c0 = x[0] + (x[1] - x[0]) * fy, c1 = x[2] + (x[3] - x[2]) * fy;
-      return c0 + (c1 - c0) * fz;
+      // As the sum of the 8 corners times their weights: the weights depend only on the position,
+      // which is known long before the corners arrive from memory, so only two multiplications,
+      // an addition and the sum over the lanes wait for them (the nested lerps chained nine
+      // operations after the loads; every sample's step waits for this value).
+      const float gx = 1.0f - fx, gy = 1.0f - fy, gz = 1.0f - fz;
+      const F4 wyz = F4{gy * gz, fy * gz, gy * fz, fy * fz};  // lanes: corner pairs (y, z) = 00, 10, 01, 11
+      const F4 v = k.x0 * (wyz * gx) + k.x1 * (wyz * fx);
+      const F4 h = v + __builtin_shufflevector(v, v, 2, 3, 0, 1);
+      return h[0] + h[1];
     } else {
       const Real* c = k.c;
       const Real c00 = c[0] + (c[1] - c[0]) * fx, c10 = c[2] + (c[3] - c[2]) * fx;
