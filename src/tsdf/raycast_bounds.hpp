@@ -342,8 +342,8 @@ class Splatter {
   // (then centres() writes few rows and columns); false also when a block may be near or behind
   // the sensor plane. For a point q of the box c +- ext_, q_x / q_z - c_x / c_z = ((q_x - c_x) c_z
   // - c_x (q_z - c_z)) / (q_z c_z), so |q_x / q_z - c_x / c_z| <= (ext_x + |c_x / c_z| ext_z) /
-  // (c_z - ext_z), exact for the box; over the brick it is bounded with the block centres'
-  // smallest z and largest |x|, |y| (the lattice's extreme corners).
+  // (c_z - ext_z) for every point of the box (no sphere around it); over the brick it is bounded
+  // with the block centres' smallest z and largest |x|, |y| (the lattice's extreme corners).
   bool brick_radius(const Vec3f& c0) const {
     float lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
