@@ -292,10 +292,19 @@ class RayMarcher {
         quant_(intr.max_range_m), last_(uint32_t(volume.dim() - 1)),
         nb_(uint32_t(volume.bricks_per_axis())), nb2_(nb_ * nb_), dy_wrap_(nb_ * kBrickVoxels - 56u),
         dz_wrap_(nb2_ * kBrickVoxels - 448u),
-        // A voxel of slack around the pixel's range (raycast_bounds.hpp), which is exact only up
-        // to float rounding: every crossing lies inside the range, so the march's first sample is
-        // at least this far in front of it (in the positive band of a surface seen from here).
-        margin_(real_from<Real>(volume.voxel_m())),
+        // Slack around the pixel's range (raycast_bounds.hpp; exact only up to float rounding):
+        // every crossing lies inside the range, so the march's first sample is at least this far
+        // in front of it. At least a voxel; and half a truncation less a quarter voxel, because a
+        // first sample whose cell has an unobserved corner (depth holes and shadow rims leave such
+        // cells in front of surfaces) steps half a truncation: from this start it lands at most a
+        // quarter voxel past the near bound, where crossings are rare (they lie within a voxel of
+        // a marked voxel, itself within half a voxel of its block's centre, and the bound is the
+        // block's cube 1.5 voxels in front of that centre). Round 7 (cube bounds) measured at
+        // trunc = 4 voxels: margin 1 voxel lost 0.9 % of bin_rig_a xtion's hits against round 6
+        // (7,981 / 1,999 pixels in one bench run), 1.5 and 1.75 voxels none (docs/BENCHMARKS.md,
+        // round 7; 1.75 because 1.5 tipped test_edgefused_fusion_e2e's knife-edge tracked can in
+        // the fixed-point build).
+        margin_(real_from<Real>(std::max(volume.voxel_m(), 0.5f * volume.params().trunc_m - 0.25f * volume.voxel_m()))),
         want_vertex_(!maps.vertex.empty()), want_normal_(!maps.normal.empty()), clear_colour_(!maps.colour.empty()),
         want_colour_(!maps.colour.empty() && volume.has_colour()) {
     for (int axis = 0; axis < 3; ++axis)
