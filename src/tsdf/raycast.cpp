@@ -253,8 +253,8 @@ struct CellCorners {
   bool observed;  // no corner is kTsdfUnobserved (c is valid only then)
   Real c[8];      // Q16.16 fractions of trunc, corner order
 };
-// The float build keeps the stored integers as floats (scaled once after the lerps), as the
-// 4-lane vectors the x lerp takes: corners 0, 2, 4, 6 and 1, 3, 5, 7.
+// The float build keeps the stored integers as floats (never scaled, see lerp_cell), as two
+// 4-lane vectors: corners 0, 2, 4, 6 (x = 0) and 1, 3, 5, 7 (x = 1).
 template <>
 struct CellCorners<float> {
   uint32_t base;
@@ -488,7 +488,8 @@ class RayMarcher {
     return out;
   }
   // Trilinear TSDF of an observed cell at offsets fx, fy, fz, in the march's value unit
-  // (value_one() per truncation): the arithmetic of TsdfSampler::sample. The float build works on
+  // (value_one() per truncation): TsdfSampler::sample's interpolation (in float as a weighted sum
+  // of the corners, equal to the nested lerps up to rounding). The float build works on
   // the stored integers and never scales them: the march needs only signs, ratios of values
   // (regula falsi) and the step per value unit, so the scaling (by a power of two, which commutes
   // exactly with the lerps) would only lengthen every sample's dependency chain.
