@@ -353,7 +353,8 @@ class RayMarcher {
     r.t_end = min_r(f_.max_z, real_from<Real>(far_m) + margin_);
     // Most ranges lie inside the grid (they come from marked blocks): then the clip, which needs
     // the crossing data (three divisions), would change nothing.
-    if (!(inside_clip_box(r, r.t) && inside_clip_box(r, r.t_end))) {
+    const bool inside = inside_clip_box(r, r.t) && inside_clip_box(r, r.t_end);
+    if (!inside) {
       r.dir.prepare_crossings();
       if (!clip_to_grid(f_, r.dir, r.t, r.t_end)) return false;
     } else if (!(r.t < r.t_end)) {
@@ -362,6 +363,8 @@ class RayMarcher {
     // Start and stop a little inside the grid: the clip is exact only up to rounding.
     r.t += r.nudge;
     r.t_end -= r.nudge;
+    // Ends that were inside the clip box before the nudges stay between those g (g is monotonic
+    // in t), so only clipped rays need the proof below.
     if constexpr (std::is_same<Real, float>::value) {
       // The float march reads cells without a bounds test: every sample's t lies in [t, t_end),
       // and g = g0 + t gd, rounded, is monotonic in t, so every sample's g lies between the two
@@ -371,7 +374,7 @@ class RayMarcher {
       // voxel for this, more than the clip's own rounding; a ray that fails anyway is not marched.
       // (A wider box cut off crossings in the grid's last 1/32 voxel, e.g. of a plane lying
       // there in test_tsdf_analytic.)
-      for (int a = 0; a < 3; ++a) {
+      for (int a = 0; a < 3 && !inside; ++a) {
         const float lo = f_.g0[a] + r.t * gd[a], hi = f_.g0[a] + r.t_end * gd[a];
         if (!(std::min(lo, hi) > -0.5f && std::max(lo, hi) < f_.grid_max - 1.0f / 8192.0f)) return false;
       }
