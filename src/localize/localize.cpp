@@ -263,6 +263,7 @@ bool Localizer::try_flipped_twins(int m, const LocalizeParams& params, Localized
   const ModelInfo& info = b_.models[m];
   const auto quality = [](const LocalizedObject& o) { return float(o.support) * o.score; };
   const LocalizedObject first = h;
+  bool replaced = false;
   for (int axis = 0; axis < 3; ++axis) {
     // The half turn about object axis `axis` through centre c: x -> F (x - c) + c.
     Mat3f F = -Mat3f::Identity();
@@ -274,12 +275,17 @@ bool Localizer::try_flipped_twins(int m, const LocalizeParams& params, Localized
     LocalizedObject twin;
     if (!refine(m, T, params)) continue;
     verify(m, T, params, twin, -1, nullptr);
-    if (twin.score < params.min_score || twin.support < uint32_t(params.min_support) ||
-        twin.free_space > params.max_free_space)
-      continue;
-    if (quality(twin) > quality(h)) h = twin;
+    if (passes_thresholds(twin, params) && quality(twin) > quality(h)) {
+      h = twin;
+      replaced = true;
+    }
   }
-  return h.T_world_object.t != first.T_world_object.t || h.T_world_object.R != first.T_world_object.R;
+  return replaced;
+}
+
+bool Localizer::passes_thresholds(const LocalizedObject& h, const LocalizeParams& params) {
+  return !(h.score < params.min_score || h.support < uint32_t(params.min_support) ||
+           h.free_space > params.max_free_space);
 }
 
 void Localizer::refine_job(void* self, std::size_t k) {
@@ -291,8 +297,7 @@ void Localizer::refine_job(void* self, std::size_t k) {
   LocalizedObject h;
   if (me.refine(m, T, params)) {
     me.verify(m, T, params, h, -1, nullptr);
-    if (h.score < params.min_score || h.support < uint32_t(params.min_support) || h.free_space > params.max_free_space)
-      h.model = -1;
+    if (!passes_thresholds(h, params)) h.model = -1;
   }
   slot = h;  // model -1: rejected
 }

@@ -241,6 +241,8 @@ class Localizer {
   // Replaces verified hypothesis h of model m by a half-turned twin of it that explains the scene
   // better (nearly symmetric shapes), if one does; true when it did.
   bool try_flipped_twins(int m, const LocalizeParams& params, LocalizedObject& h) const;
+  // True when a verified hypothesis is good enough to keep (score, support, free space).
+  static bool passes_thresholds(const LocalizedObject& h, const LocalizeParams& params);
   bool plausible(int m, const Pose& T, const LocalizeParams& params) const;
   void verify(int m, const Pose& T, const LocalizeParams& params, LocalizedObject& out, int claim_label,
               float* overlap) const;
