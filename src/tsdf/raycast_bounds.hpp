@@ -71,6 +71,13 @@ inline S8 load8(const alias_i16* p) {
 }
 inline void store8(alias_i16* p, S8 v) { std::memcpy(p, &v, sizeof v); }
 inline S8 min8(S8 a, S8 b) { return a < b ? a : b; }
+//! Four pixels' halves: `pair` (nh, fh repeated) in pixels [from, to] of the four, kEmpty in the
+//! others (a minimum with kEmpty leaves a pixel as it is).
+inline S8 pair_lanes(S8 pair, int from, int to) {
+  const S8 lane = S8{0, 0, 1, 1, 2, 2, 3, 3};
+  const S8 none = S8{kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty};
+  return (lane >= int16_t(from)) & (lane <= int16_t(to)) ? pair : none;
+}
 }  // namespace lanes
 
 //! Sets every pixel of the depth map to "no bound".
@@ -101,12 +108,9 @@ inline void merge_rect(const ImageView<float>& depth, int u0, int u1, int v0, in
   const S8 pair = S8{nh, fh, nh, fh, nh, fh, nh, fh};
   const int n = u1 - u0 + 1;
   if (aligned) {
-    const S8 lane = S8{0, 0, 1, 1, 2, 2, 3, 3};
-    const S8 none = S8{kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty};
     const int g0 = u0 & ~3, g1 = u1 & ~3;  // first and last group
-    const S8 from = lane >= int16_t(u0 - g0), to = lane <= int16_t(u1 - g1);
-    const S8 first = (g0 == g1 ? from & to : from) ? pair : none;
-    const S8 last = to ? pair : none;
+    const S8 first = pair_lanes(pair, u0 - g0, g0 == g1 ? u1 - g1 : 3);
+    const S8 last = pair_lanes(pair, 0, u1 - g1);
     for (int v = v0; v <= v1; ++v) {
       alias_i16* p = reinterpret_cast<alias_i16*>(depth.row(v)) + 2 * g0;
       alias_i16* const end = p + 2 * (g1 - g0);
@@ -444,10 +448,7 @@ class Splatter {
         // groups gave no gain). Wider rects, and rects at the right border, pixel by pixel in
         // bounded loops with an early exit.
         if (u1 - u0 < 4 && u0 + 4 <= w) {
-          const S8 lane = S8{0, 0, 1, 1, 2, 2, 3, 3};
-          const S8 pair = S8{nh_l, fh_l, nh_l, fh_l, nh_l, fh_l, nh_l, fh_l};
-          const S8 none = S8{kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty, kEmpty};
-          const S8 val = lane <= int16_t(u1 - u0) ? pair : none;
+          const S8 val = pair_lanes(S8{nh_l, fh_l, nh_l, fh_l, nh_l, fh_l, nh_l, fh_l}, 0, u1 - u0);
           for (int j = 0; j < kCentresSpan && v0 + j <= v1; ++j) {
             alias_i16* p = reinterpret_cast<alias_i16*>(depth_.row(v0 + j)) + 2 * u0;
             store8(p, min8(load8(p), val));
