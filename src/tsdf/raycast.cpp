@@ -366,17 +366,19 @@ class RayMarcher {
     // Ends that were inside the clip box before the nudges stay between those g (g is monotonic
     // in t), so only clipped rays need the proof below.
     if constexpr (std::is_same<Real, float>::value) {
-      // The float march reads cells without a bounds test: every sample's t lies in [t, t_end),
-      // and g = g0 + t gd, rounded, is monotonic in t, so every sample's g lies between the two
-      // ends' g computed here. Both ends inside (-1/2, grid_max - 1/8192) on every axis keep every
-      // sample's cell, int(g), in [0, dim - 2] (the margin covers a multiply-add fused at one of
-      // the two sites and not at the other: an ulp, 6e-5 at 1024). The clip box leaves 1/2048
-      // voxel for this, more than the clip's own rounding; a ray that fails anyway is not marched.
-      // (A wider box cut off crossings in the grid's last 1/32 voxel, e.g. of a plane lying
-      // there in test_tsdf_analytic.)
-      for (int a = 0; a < 3 && !inside; ++a) {
-        const float lo = f_.g0[a] + r.t * gd[a], hi = f_.g0[a] + r.t_end * gd[a];
-        if (!(std::min(lo, hi) > -0.5f && std::max(lo, hi) < f_.grid_max - 1.0f / 8192.0f)) return false;
+      if (!inside) {
+        // The float march reads cells without a bounds test: every sample's t lies in [t, t_end),
+        // and g = g0 + t gd, rounded, is monotonic in t, so every sample's g lies between the two
+        // ends' g computed here. Both ends inside (-1/2, grid_max - 1/8192) on every axis keep every
+        // sample's cell, int(g), in [0, dim - 2] (the margin covers a multiply-add fused at one of
+        // the two sites and not at the other: an ulp, 6e-5 at 1024). The clip box leaves 1/2048
+        // voxel for this, more than the clip's own rounding; a ray that fails anyway is not marched.
+        // (A wider box cut off crossings in the grid's last 1/32 voxel, e.g. of a plane lying
+        // there in test_tsdf_analytic.)
+        for (int a = 0; a < 3; ++a) {
+          const float lo = f_.g0[a] + r.t * gd[a], hi = f_.g0[a] + r.t_end * gd[a];
+          if (!(std::min(lo, hi) > -0.5f && std::max(lo, hi) < f_.grid_max - 1.0f / 8192.0f)) return false;
+        }
       }
     }
     r.prev_t = zero;
