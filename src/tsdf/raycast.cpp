@@ -669,23 +669,27 @@ class RayMarcher {
 
   // TsdfSampler::gradient (central differences of the 6 voxels around the voxel nearest to g;
   // false at an unobserved or truncated neighbour) with the neighbours addressed from the centre
-  // voxel's index instead of 6 full index computations: the same voxels, the same result.
+  // voxel's index and the address tables' +1 steps instead of 6 full index computations: the
+  // same voxels, the same result.
   bool gradient(const Real g[3], float grad[3]) const {
     const Real half = real_from<Real>(0.5f);
-    const int c[3] = {floor_int(g[0] + half), floor_int(g[1] + half), floor_int(g[2] + half)};
+    // A hit lies inside the grid (g > -1/2): march_cell floors g + 1/2 there.
+    const int c[3] = {march_cell(g[0] + half), march_cell(g[1] + half), march_cell(g[2] + half)};
     const int last = int(last_);
     if (c[0] < 1 || c[1] < 1 || c[2] < 1 || c[0] >= last || c[1] >= last || c[2] >= last) return false;
     const uint32_t centre = base_index(c);
-    const uint32_t wrap[3] = {uint32_t(kBrickVoxels) - 7u, dy_wrap_, dz_wrap_};  // +1 from a brick's last voxel
+    int16_t q[6];
     for (int a = 0; a < 3; ++a) {
-      const uint32_t local = uint32_t(c[a]) & 7u, unit = 1u << (3 * a);
-      const uint32_t up = local == 7u ? wrap[a] : unit, down = local == 0u ? wrap[a] : unit;
-      const int16_t ql = tsdf_[centre - down], qh = tsdf_[centre + up];
-      if (ql == kTsdfUnobserved || qh == kTsdfUnobserved || ql == kTsdfMax || qh == kTsdfMax || ql == -kTsdfMax ||
-          qh == -kTsdfMax)
-        return false;
-      grad[a] = float(int32_t(qh) - int32_t(ql));
+      const uint32_t up = uint32_t(axis_entry_[a][c[a]] >> 32), down = uint32_t(axis_entry_[a][c[a] - 1] >> 32);
+      q[2 * a] = tsdf_[centre - down];
+      q[2 * a + 1] = tsdf_[centre + up];
     }
+    // Unobserved (-32768) or truncated (+-32767) neighbours: x + 32766 (mod 2^16) lands at
+    // 65533 or above exactly for those three values. One branch for all six.
+    bool usable = true;
+    for (int k = 0; k < 6; ++k) usable &= uint16_t(q[k] + 32766) < 65533u;
+    if (!usable) return false;
+    for (int a = 0; a < 3; ++a) grad[a] = float(int32_t(q[2 * a + 1]) - int32_t(q[2 * a]));
     return true;
   }
 
