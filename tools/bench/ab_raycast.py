@@ -3,11 +3,13 @@
 
 The shared VM's speed drifts by +-10 % within minutes, far more than most single changes to the
 raycast are worth; unpaired runs minutes apart cannot show them. This script alternates the two
-binaries (A B, B A, A B, ...: the order alternates too) on the same data set, reads each run's thread CPU per raycast on the
-final volume, and prints every pair, both medians, the median of the per-pair ratios B/A and in
-how many pairs B was faster. Read a change as real only when the ratio and the pair count agree
-(e.g. 8 of 10 pairs and a median ratio below 0.97); instruction counts (callgrind) are the
-repeatable complement, but session 8 found changes of -11 % instructions with no time effect.
+binaries (A B, B A, A B, ...) on the same data set, reads each run's thread CPU per raycast on
+the final volume, and prints every pair, both medians, the median of the per-pair ratios B/A and in
+how many pairs B was faster. Two binaries of the same code gave 1.021 (B faster in 2 of 10
+pairs) in alternating order and 0.967 (7 of 10) when A always ran first: read a change as real
+only when the ratio is clearly outside that (below ~0.96 with most pairs agreeing). Instruction
+counts (callgrind) are the repeatable complement, but session 8 found -11 % instructions with no
+measurable time effect (docs/BENCHMARKS.md, round 8).
 
   /usr/bin/python3 tools/bench/ab_raycast.py BIN_A BIN_B [--pairs 10] [--reps 6]
       [--data ../shared/data/bin_rig_a] [--sensor xtion] [-- extra bench arguments]
