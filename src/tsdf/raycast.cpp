@@ -348,7 +348,7 @@ class RayMarcher {
     r.half_trunc = max_r(half * f_.trunc * r.z_per_m, r.min_step);
     r.far_step = max_r((f_.trunc - f_.voxel) * r.z_per_m, r.min_step);
     r.step_per_value = f_.trunc * r.z_per_m;
-    if constexpr (std::is_same<Real, float>::value) r.step_per_value *= 1.0f / 32768.0f;
+    if constexpr (std::is_same<Real, float>::value) r.step_per_value *= 1.0f / value_one();
     r.t = max_r(f_.min_z, real_from<Real>(near_m) - margin_);
     r.t_end = min_r(f_.max_z, real_from<Real>(far_m) + margin_);
     // Most ranges lie inside the grid (they come from marked blocks): then the clip, which needs
@@ -416,8 +416,8 @@ class RayMarcher {
     a.dz = uint32_t(ez >> 32);
     return a;
   }
-  // Linear index of the cell's base voxel (its brick's flag is flags_[base >> 9]).
-  uint32_t base_index(const int cell[3]) const { return address(cell).base; }
+  // The index offset from coordinate c to c + 1 on `axis` (address()'s dx, dy or dz).
+  uint32_t step_up(int axis, int c) const { return uint32_t(axis_entry_[axis][c] >> 32); }
   // The table entry of coordinate c on `axis` (see address()).
   uint64_t axis_entry(int axis, uint32_t c) const {
     const uint32_t bricks = axis == 0 ? 1u : (axis == 1 ? nb_ : nb2_);
@@ -677,12 +677,12 @@ class RayMarcher {
     const int c[3] = {march_cell(g[0] + half), march_cell(g[1] + half), march_cell(g[2] + half)};
     const int last = int(last_);
     if (c[0] < 1 || c[1] < 1 || c[2] < 1 || c[0] >= last || c[1] >= last || c[2] >= last) return false;
-    const uint32_t centre = base_index(c);
+    const CellAddress centre = address(c);  // the +1 steps from c are the cell's dx, dy, dz
+    const uint32_t up[3] = {centre.dx, centre.dy, centre.dz};
     int16_t q[6];
     for (int a = 0; a < 3; ++a) {
-      const uint32_t up = uint32_t(axis_entry_[a][c[a]] >> 32), down = uint32_t(axis_entry_[a][c[a] - 1] >> 32);
-      q[2 * a] = tsdf_[centre - down];
-      q[2 * a + 1] = tsdf_[centre + up];
+      q[2 * a] = tsdf_[centre.base - step_up(a, c[a] - 1)];
+      q[2 * a + 1] = tsdf_[centre.base + up[a]];
     }
     // Unobserved (-32768) or truncated (+-32767) neighbours: x + 32766 (mod 2^16) lands at
     // 65533 or above exactly for those three values. One branch for all six.
