@@ -224,9 +224,11 @@ if failures:
     print(text)
 
 # --- tracked poses: the same replay, poses by ICP tracking against the raycast model (from the first
-# frame's known pose), every frame pushed. Measured: tracking 0.4 mm from the truth at the last
-# frame; objects 1, 2, 4, 6 within 5 mm / 5 deg (box 3 is missed with the tracked map). Required:
-# no lost frame, those four objects, no false positive.
+# frame's known pose), every frame pushed. Measured: tracking 0.4-0.5 mm from the truth at the last
+# frame; all six objects within 5 mm / 5 deg. Required: no lost frame, all six, no false positive.
+# (Until session 9 box 3, in the bin's corner, was missed with the tracked map, and a raycast
+# rounding change of 1e-7 m let a bracket claim its place; the localiser's recheck round,
+# LocalizeParams::recheck_score, now finds the box there in the float and the Q16.16 build.)
 # Played at quarter speed: tracking (raycast + ICP) takes a good part of the 200 ms frame period on a
 # loaded 2-core machine, and with the newest-frame policy a late frame is dropped, which changes
 # the map (measured: 2 of 20 frames dropped under load lost the can).
@@ -257,7 +259,7 @@ if "ready" in info:
     ev = subprocess.run([EDGEFUSE, "eval", "poses", est, os.path.join(RIG, "objects.txt")], capture_output=True,
                         text=True)
     print(ev.stdout.strip())
-    for oid in (1, 2, 4, 6):
+    for oid in range(1, 7):
         m = re.search(r"^object %d \((\S+)\): est #\d+ score \S+\s+t_err (\S+) mm\s+r_err (\S+) deg" % oid, ev.stdout,
                       re.M)
         ok = m is not None and float(m.group(2)) <= TOL_MM and float(m.group(3)) <= TOL_DEG

@@ -139,4 +139,20 @@ TEST(LocalizeRest, FindsAnUprightBracketFromItsEdgeAndFlange) {
   LONGS_EQUAL(1, again);
   CHECK(loc.results()[0].T_world_object.t == o.T_world_object.t);
   CHECK(loc.results()[0].T_world_object.R == o.T_world_object.R);
+  // Every result rechecked (a recheck score above any score): its surface is searched once more and
+  // the bracket, still its best explanation, is accepted again, without heap and with no round marks
+  // left in the labels.
+  params.recheck_score = 1.01f;
+  std::size_t rechecked = 0;
+  alloc_count_start();
+  CHECK(loc.set_scene(g_points, n, ctx, &vol, 0.0075f) == Status::kOk);
+  CHECK(loc.remove_bin(params) == Status::kOk);
+  CHECK(loc.localize(params, kObjects, rechecked) == Status::kOk);
+  LONGS_EQUAL(0, alloc_count());
+  LONGS_EQUAL(1, rechecked);
+  for (std::size_t i = 0; i < loc.scene_count(); ++i) CHECK(loc.labels()[i] >= 0);
+  const float err_rechecked = corner_error(loc.results()[0].T_world_object, truth);
+  std::printf("  the same, every result rechecked: corner error %.2f mm, score %.2f\n", err_rechecked * 1e3f,
+              loc.results()[0].score);
+  CHECK(err_rechecked < 0.005f);
 }
