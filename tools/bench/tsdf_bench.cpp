@@ -6,7 +6,7 @@
 // speed change can be shown not to change the result. Host only; allocates freely.
 //
 // usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R] [--no-colour-map] [--truth]
-//                            [--no-raycast] [--dump FILE] [--compare FILE]
+//                            [--no-raycast] [--dump FILE] [--compare FILE] [--cast-level L]
 #include <time.h>
 
 #include <algorithm>
@@ -19,6 +19,7 @@
 #include "core_setup.hpp"
 #include "edgefuse/io/dataset.hpp"
 #include "edgefuse/memory/arena.hpp"
+#include "edgefuse/tracking/pyramid.hpp"
 #include "fuse_options.hpp"
 
 using namespace edgefuse;
@@ -90,27 +91,30 @@ bool compare_dumps(const MapDump& mine, const std::string& path, std::size_t pix
 
 const char* kUsage =
     "usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R] [--no-raycast]\n"
-    "                           [--no-colour-map] [--truth] [--dump FILE] [--compare FILE]\n"
+    "                           [--no-colour-map] [--truth] [--dump FILE] [--compare FILE] [--cast-level L]\n"
     "  Fuses DATASET at its ground-truth poses (board defaults; --voxel sets trunc = 4 voxels), timing each\n"
     "  integration, then raycasts every pose R times (default 3) on the final volume. Thread CPU time.\n"
     "  --no-colour-map raycasts depth, vertex and normal only, as the tracking loop does.\n"
-    "  --truth compares the final raycasts with the frames' own depth images (pixels off by > 1 cm).\n";
+    "  --truth compares the final raycasts with the frames' own depth images (pixels off by > 1 cm).\n"
+    "  --cast-level L raycasts at the tracking pyramid's level L (1: half the frames' width and height,\n"
+    "  e.g. 320x240 from 640x480 frames); integration stays at full resolution. Not with --truth.\n";
 
 }  // namespace
 
 int main(int argc, char** argv) {
   Args args;
   std::string err;
-  if (!args.parse(argc - 1, argv + 1, {"sensor", "frames", "voxel", "reps", "dump", "compare"}, {"no-raycast", "no-colour-map", "truth"}, err) ||
+  if (!args.parse(argc - 1, argv + 1, {"sensor", "frames", "voxel", "reps", "dump", "compare", "cast-level"}, {"no-raycast", "no-colour-map", "truth"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n%s", err.empty() ? "expected one DATASET" : err.c_str(), kUsage);
     return 2;
   }
   const BoardCapacities& board = build_board();
   FuseSettings s;
-  int frames_max = 0, reps = 3;
+  int frames_max = 0, reps = 3, cast_level = 0;
   if (!board_fuse_settings(s, err) || !apply_fuse_options(args, s, frames_max, err) ||
-      (args.has("reps") && !args.get_int("reps", 0, 1000, reps, err))) {
+      (args.has("reps") && !args.get_int("reps", 0, 1000, reps, err)) ||
+      (args.has("cast-level") && !args.get_int("cast-level", 0, 3, cast_level, err))) {
     std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", err.c_str());
     return 2;
   }
@@ -135,6 +139,20 @@ int main(int argc, char** argv) {
   double integrate_ms = 0.0, raycast_fuse_ms = 0.0;
   const bool cast = !args.has("no-raycast");
   if (args.has("no-colour-map")) core.maps.colour = ImageView<Rgba8>();  // as edgefuse track
+  if (cast_level > 0 && args.has("truth")) {
+    std::fprintf(stderr, "edgefuse_tsdf_bench: --truth compares full-resolution casts only (not with --cast-level)\n");
+    return 2;
+  }
+  // The raycasts' sensor and maps: the frames' own, or a pyramid level's (views of the first
+  // pixels of the same buffers).
+  const PinholeIntrinsics cast_intr = cast_level > 0 ? level_intrinsics(seq.intr, cast_level) : seq.intr;
+  RaycastMaps cast_maps = core.maps;
+  const int cw = cast_intr.width, ch = cast_intr.height;
+  cast_maps.depth_m = ImageView<float>(core.maps.depth_m.data, cw, ch);
+  cast_maps.vertex = ImageView<Vec3f>(core.maps.vertex.data, cw, ch);
+  cast_maps.normal = ImageView<Vec3f>(core.maps.normal.data, cw, ch);
+  if (!core.maps.colour.empty()) cast_maps.colour = ImageView<Rgba8>(core.maps.colour.data, cw, ch);
+  const std::size_t cast_pixels = std::size_t(cw) * ch;
   for (std::size_t i = 0; i < n; ++i) {
     if (!io::load_depth(seq.frames[i], seq.intr, depth, err) ||
         (use_colour && !io::load_colour(seq.frames[i], seq.intr, colour, err))) {
@@ -148,7 +166,7 @@ int main(int argc, char** argv) {
     integrate_ms += thread_cpu_ms() - t0;
     if (!cast) continue;
     t0 = thread_cpu_ms();
-    raycast<real_t>(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps);
+    raycast<real_t>(core.volume, cast_intr, seq.frames[i].T_world_cam, cast_maps);
     raycast_fuse_ms += thread_cpu_ms() - t0;
   }
   // A checksum of every voxel (distance, weight, colour) and brick flag: equal checksums show that
@@ -174,10 +192,10 @@ int main(int argc, char** argv) {
   for (int r = 0; cast && r < reps; ++r)
     for (std::size_t i = 0; i < n; ++i) {
       double t0 = thread_cpu_ms();
-      raycast<real_t>(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps);
+      raycast<real_t>(core.volume, cast_intr, seq.frames[i].T_world_cam, cast_maps);
       raycast_ms += thread_cpu_ms() - t0;
       ++casts;
-      if (r == 0) dump.add(core.maps, pixels);
+      if (r == 0) dump.add(cast_maps, cast_pixels);
       if (r == 0 && args.has("truth")) {
         // The final raycast at a frame's pose against that frame's own depth image.
         if (!io::load_depth(seq.frames[i], seq.intr, depth, err)) {
@@ -192,18 +210,19 @@ int main(int argc, char** argv) {
         }
       }
       hits = 0;  // of the raycast (the prepare_raycast timed below leaves its bounds in the depth map)
-      for (std::size_t k = 0; k < pixels; ++k) hits += core.maps.depth_m.data[k] > 0.0f;
+      for (std::size_t k = 0; k < cast_pixels; ++k) hits += cast_maps.depth_m.data[k] > 0.0f;
       t0 = thread_cpu_ms();
-      prepare_raycast(core.volume, seq.intr, seq.frames[i].T_world_cam, core.maps);
+      prepare_raycast(core.volume, cast_intr, seq.frames[i].T_world_cam, cast_maps);
       prepare_ms += thread_cpu_ms() - t0;
     }
   std::printf("%s %dx%d, %d^3 x %.4g m (%s), %zu frames: integrate %.2f ms/frame thread CPU", seq.root.c_str(), W, H,
               s.dim, double(s.voxel_m), std::is_same<real_t, float>::value ? "float" : "Q16.16", n, integrate_ms / n);
+  if (cast && cast_level > 0) std::printf(", raycasts %dx%d (pyramid level %d)", cw, ch, cast_level);
   if (cast)
     std::printf(", raycast %.2f ms after each frame, %.2f ms on the final volume (%d casts; of which prepare %.2f ms), "
                 "hit %.1f%% (last)",
                 raycast_fuse_ms / n, raycast_ms / std::max(casts, 1), casts, prepare_ms / std::max(casts, 1),
-                100.0 * hits / pixels);
+                100.0 * hits / cast_pixels);
   std::printf("\nvolume checksum %016llx\n", static_cast<unsigned long long>(checksum));
   if (args.has("truth"))
     std::printf("against the frames' depth: %zu pixels with both, %zu off by more than 1 cm\n", truth_both,
@@ -217,6 +236,6 @@ int main(int argc, char** argv) {
     }
     std::fclose(fp);
   }
-  if (args.has("compare") && !compare_dumps(dump, args.get("compare"), pixels, s.voxel_m)) return 1;
+  if (args.has("compare") && !compare_dumps(dump, args.get("compare"), cast_pixels, s.voxel_m)) return 1;
   return 0;
 }
