@@ -106,12 +106,16 @@ TEST(LocalizeRest, FindsAnUprightBracketFromItsEdgeAndFlange) {
   TsdfVolume vol;
   SceneContext ctx;
   const std::size_t n = fuse(scene, vol, ctx.viewpoint_m, 75.0f);
+  // The fused scene, its bin removed, localised with `params` (count: poses found).
+  const auto localize_scene = [&](std::size_t& count) {
+    CHECK(loc.set_scene(g_points, n, ctx, &vol, 0.0075f) == Status::kOk);
+    CHECK(loc.remove_bin(params) == Status::kOk);
+    CHECK(loc.localize(params, kObjects, count) == Status::kOk);
+  };
   // Without the rest-pose round (for the record: point pair features on a 5 mm edge seldom work).
   params.rest_poses = false;
-  CHECK(loc.set_scene(g_points, n, ctx, &vol, 0.0075f) == Status::kOk);
-  CHECK(loc.remove_bin(params) == Status::kOk);
   std::size_t without = 0;
-  CHECK(loc.localize(params, kObjects, without) == Status::kOk);
+  localize_scene(without);
   std::printf("\n  upright bracket without rest poses: %zu poses%s", without,
               without ? "" : " (as on bin_rig_a)");
   if (without) std::printf(", corner error %.2f mm", corner_error(loc.results()[0].T_world_object, truth) * 1e3f);
@@ -119,9 +123,7 @@ TEST(LocalizeRest, FindsAnUprightBracketFromItsEdgeAndFlange) {
   params.rest_poses = true;
   std::size_t count = 0;
   alloc_count_start();
-  CHECK(loc.set_scene(g_points, n, ctx, &vol, 0.0075f) == Status::kOk);
-  CHECK(loc.remove_bin(params) == Status::kOk);
-  CHECK(loc.localize(params, kObjects, count) == Status::kOk);
+  localize_scene(count);
   LONGS_EQUAL(0, alloc_count());
   LONGS_EQUAL(1, count);
   for (std::size_t i = 0; i < loc.scene_count(); ++i) CHECK(loc.labels()[i] >= 0);  // claims only (no round marks)
@@ -132,10 +134,8 @@ TEST(LocalizeRest, FindsAnUprightBracketFromItsEdgeAndFlange) {
   // Tolerance from the physics: 3 mm voxels; the fragments are 5 mm wide.
   CHECK(err < 0.005f);
   // Deterministic: the same scene gives the bit-identical pose.
-  CHECK(loc.set_scene(g_points, n, ctx, &vol, 0.0075f) == Status::kOk);
-  CHECK(loc.remove_bin(params) == Status::kOk);
   std::size_t again = 0;
-  CHECK(loc.localize(params, kObjects, again) == Status::kOk);
+  localize_scene(again);
   LONGS_EQUAL(1, again);
   CHECK(loc.results()[0].T_world_object.t == o.T_world_object.t);
   CHECK(loc.results()[0].T_world_object.R == o.T_world_object.R);
@@ -145,9 +145,7 @@ TEST(LocalizeRest, FindsAnUprightBracketFromItsEdgeAndFlange) {
   params.recheck_score = 1.01f;
   std::size_t rechecked = 0;
   alloc_count_start();
-  CHECK(loc.set_scene(g_points, n, ctx, &vol, 0.0075f) == Status::kOk);
-  CHECK(loc.remove_bin(params) == Status::kOk);
-  CHECK(loc.localize(params, kObjects, rechecked) == Status::kOk);
+  localize_scene(rechecked);
   LONGS_EQUAL(0, alloc_count());
   LONGS_EQUAL(1, rechecked);
   for (std::size_t i = 0; i < loc.scene_count(); ++i) CHECK(loc.labels()[i] >= 0);
