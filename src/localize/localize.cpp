@@ -279,7 +279,8 @@ void Localizer::recheck_weak_results(const LocalizeParams& params, int max_resul
       if (l == weak_label[w]) l = 0;
   }
   // Each weak result's surface holds about one part: two peaks per model and weak result are
-  // enough (the full round's six per model cost ~40 % more localisation time on bin_rig_a).
+  // enough (bin_rig_a, one thread: +14 % localisation CPU; a first version with the round's six
+  // peaks per model, searching more surface, cost +44 %).
   LocalizeParams few = params;
   few.rest_hypotheses = std::min(params.rest_hypotheses, int(2 * nweak));
   std::size_t n = 0;
