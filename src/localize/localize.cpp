@@ -279,8 +279,9 @@ void Localizer::recheck_weak_results(const LocalizeParams& params, int max_resul
       if (l == weak_label[w]) l = 0;
   }
   // Each weak result's surface holds about one part: two peaks per model and weak result are
-  // enough (bin_rig_a, one thread: +14 % localisation CPU; a first version with the round's six
-  // peaks per model, searching more surface, cost +44 %).
+  // enough (bin_rig_a, one thread: +14 % localisation CPU in one pair, within the VM's noise in
+  // three more; a first version with the round's six peaks per model, searching more surface,
+  // +44 % in one pair).
   LocalizeParams few = params;
   few.rest_hypotheses = std::min(params.rest_hypotheses, int(2 * nweak));
   std::size_t n = 0;
@@ -288,10 +289,9 @@ void Localizer::recheck_weak_results(const LocalizeParams& params, int max_resul
     for (int m = 0; m < model_count_; ++m) n += queue_rest_hypotheses(m, few, n);
     n = refine_all(n, params);
   }
-  // The weak results compete with those hypotheses (after them; when the round filled every slot
-  // the last weak results are left out).
-  const std::size_t cap_verified = std::size_t(b_.models_max) * kClustersPerModel;
-  for (std::size_t w = 0; w < nweak && n < cap_verified; ++w) b_.verified[n++] = weak[w];
+  // The weak results compete with those hypotheses, after them (at most 2 kRecheckMax per model
+  // are queued, half of the slots, so the bound below never drops one).
+  for (std::size_t w = 0; w < nweak && n < verified_capacity(); ++w) b_.verified[n++] = weak[w];
   accept_hypotheses(n, params, max_results, count, per_model);
 }
 
@@ -391,7 +391,7 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
       }
       ++refined;
       // Queued: refined and verified below, all models' hypotheses in one parallel batch.
-      if (nverified < std::size_t(b_.models_max) * kClustersPerModel) {
+      if (nverified < verified_capacity()) {
         b_.verified[nverified] = LocalizedObject{};
         b_.verified[nverified].model = m;
         b_.verified[nverified++].T_world_object = clusters[c].T;
@@ -403,15 +403,14 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
   int per_model[64] = {};
   accept_hypotheses(nverified, params, max_results, count, per_model);
   // Second round: rest-pose hypotheses on the surface no accepted pose explains (labels == 0).
-  if (params.rest_poses && ctx_.has_floor && count < std::size_t(max_results)) {
-    if (prepare_rest_scene(params)) {
+  // Then the recheck round on the weak results' surface.
+  if (params.rest_poses && ctx_.has_floor) {
+    if (count < std::size_t(max_results) && prepare_rest_scene(params)) {
       std::size_t n2 = 0;
       for (int m = 0; m < model_count_; ++m) n2 += queue_rest_hypotheses(m, params, n2);
       n2 = refine_all(n2, params);
       accept_hypotheses(n2, params, max_results, count, per_model);
     }
-  }
-  if (params.rest_poses && ctx_.has_floor) {
     recheck_weak_results(params, max_results, count, per_model);
     for (std::size_t i = 0; i < scene_count_; ++i)  // -1: left out of a round (prepare_rest_scene, recheck)
       if (b_.labels[i] < 0) b_.labels[i] = 0;

@@ -311,7 +311,7 @@ void Localizer::rest_vote_job(void* self, std::size_t chunk) {
 
 std::size_t Localizer::queue_rest_hypotheses(int m, const LocalizeParams& params, std::size_t first) {
   const ModelInfo& info = b_.models[m];
-  const std::size_t cap_verified = std::size_t(b_.models_max) * kClustersPerModel;
+  const std::size_t cap_verified = verified_capacity();
   if (info.rest_count == 0 || rest_.count == 0 || first >= cap_verified || params.rest_hypotheses <= 0) return 0;
   // Vote grid over the samples' extent plus half the model (the model centre's column can lie
   // beside the visible fragments); coarser cells when it would not fit one accumulator.

@@ -143,15 +143,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "edgefuse_tsdf_bench: --truth compares full-resolution casts only (not with --cast-level)\n");
     return 2;
   }
-  // The raycasts' sensor and maps: the frames' own, or a pyramid level's (views of the first
-  // pixels of the same buffers).
+  // The raycasts' sensor and maps: the frames' own, or a pyramid level's (the same buffers).
   const PinholeIntrinsics cast_intr = cast_level > 0 ? level_intrinsics(seq.intr, cast_level) : seq.intr;
-  RaycastMaps cast_maps = core.maps;
   const int cw = cast_intr.width, ch = cast_intr.height;
-  cast_maps.depth_m = ImageView<float>(core.maps.depth_m.data, cw, ch);
-  cast_maps.vertex = ImageView<Vec3f>(core.maps.vertex.data, cw, ch);
-  cast_maps.normal = ImageView<Vec3f>(core.maps.normal.data, cw, ch);
-  if (!core.maps.colour.empty()) cast_maps.colour = ImageView<Rgba8>(core.maps.colour.data, cw, ch);
+  const RaycastMaps cast_maps = core.buffers.raycast_maps(0, cw, ch, !core.maps.colour.empty());
   const std::size_t cast_pixels = std::size_t(cw) * ch;
   for (std::size_t i = 0; i < n; ++i) {
     if (!io::load_depth(seq.frames[i], seq.intr, depth, err) ||
