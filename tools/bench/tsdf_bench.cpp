@@ -7,6 +7,7 @@
 //
 // usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R] [--no-colour-map] [--truth]
 //                            [--no-raycast] [--dump FILE] [--compare FILE] [--cast-level L]
+//                            [--cast-threads N]
 #include <time.h>
 
 #include <algorithm>
@@ -21,17 +22,19 @@
 #include "edgefuse/memory/arena.hpp"
 #include "edgefuse/tracking/pyramid.hpp"
 #include "fuse_options.hpp"
+#include "parallel_tsdf.hpp"
 
 using namespace edgefuse;
 using namespace edgefuse::cli;
 
 namespace {
 
-double thread_cpu_ms() {
+double clock_ms(clockid_t clock) {
   timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  clock_gettime(clock, &ts);
   return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
+double thread_cpu_ms() { return clock_ms(CLOCK_THREAD_CPUTIME_ID); }
 
 // Depth of every final raycast, then its normals (x, y, z per pixel), one pose after the other.
 struct MapDump {
@@ -92,29 +95,33 @@ bool compare_dumps(const MapDump& mine, const std::string& path, std::size_t pix
 const char* kUsage =
     "usage: edgefuse_tsdf_bench DATASET [--sensor NAME] [--frames N] [--voxel M] [--reps R] [--no-raycast]\n"
     "                           [--no-colour-map] [--truth] [--dump FILE] [--compare FILE] [--cast-level L]\n"
+    "                           [--cast-threads N]\n"
     "  Fuses DATASET at its ground-truth poses (board defaults; --voxel sets trunc = 4 voxels), timing each\n"
     "  integration, then raycasts every pose R times (default 3) on the final volume. Thread CPU time.\n"
     "  --no-colour-map raycasts depth, vertex and normal only, as the tracking loop does.\n"
     "  --truth compares the final raycasts with the frames' own depth images (pixels off by > 1 cm).\n"
     "  --cast-level L raycasts at the tracking pyramid's level L (1: half the frames' width and height,\n"
-    "  e.g. 320x240 from 640x480 frames); integration stays at full resolution. Not with --truth.\n";
+    "  e.g. 320x240 from 640x480 frames); integration stays at full resolution. Not with --truth.\n"
+    "  --cast-threads N (2..8) also casts every pose R more times on N threads (rows shared as in\n"
+    "  edgefuse track --threads N) and prints wall-clock and all-thread CPU time per raycast.\n";
 
 }  // namespace
 
 int main(int argc, char** argv) {
   Args args;
   std::string err;
-  if (!args.parse(argc - 1, argv + 1, {"sensor", "frames", "voxel", "reps", "dump", "compare", "cast-level"}, {"no-raycast", "no-colour-map", "truth"}, err) ||
+  if (!args.parse(argc - 1, argv + 1, {"sensor", "frames", "voxel", "reps", "dump", "compare", "cast-level", "cast-threads"}, {"no-raycast", "no-colour-map", "truth"}, err) ||
       args.positional().size() != 1) {
     std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n%s", err.empty() ? "expected one DATASET" : err.c_str(), kUsage);
     return 2;
   }
   const BoardCapacities& board = build_board();
   FuseSettings s;
-  int frames_max = 0, reps = 3, cast_level = 0;
+  int frames_max = 0, reps = 3, cast_level = 0, cast_threads = 1;
   if (!board_fuse_settings(s, err) || !apply_fuse_options(args, s, frames_max, err) ||
       (args.has("reps") && !args.get_int("reps", 0, 1000, reps, err)) ||
-      (args.has("cast-level") && !args.get_int("cast-level", 0, 3, cast_level, err))) {
+      (args.has("cast-level") && !args.get_int("cast-level", 0, 3, cast_level, err)) ||
+      (args.has("cast-threads") && !args.get_int("cast-threads", 2, 8, cast_threads, err))) {
     std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", err.c_str());
     return 2;
   }
@@ -219,6 +226,25 @@ int main(int argc, char** argv) {
                 raycast_fuse_ms / n, raycast_ms / std::max(casts, 1), casts, prepare_ms / std::max(casts, 1),
                 100.0 * hits / cast_pixels);
   std::printf("\nvolume checksum %016llx\n", static_cast<unsigned long long>(checksum));
+  if (cast && cast_threads > 1) {
+    // The same casts spread over a worker pool (started here, before the timed loop): wall clock
+    // per raycast, and the CPU time of all threads, which shows what the split costs.
+    WorkerPool pool;
+    pool.start(cast_threads);
+    double wall_ms = 0.0, cpu_ms = 0.0;
+    int parallel_casts = 0;
+    for (int r = 0; r < reps; ++r)
+      for (std::size_t i = 0; i < n; ++i) {
+        const double w0 = clock_ms(CLOCK_MONOTONIC), c0 = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
+        raycast_parallel<real_t>(pool, core.volume, cast_intr, seq.frames[i].T_world_cam, cast_maps);
+        wall_ms += clock_ms(CLOCK_MONOTONIC) - w0;
+        cpu_ms += clock_ms(CLOCK_PROCESS_CPUTIME_ID) - c0;
+        ++parallel_casts;
+      }
+    pool.stop();
+    std::printf("raycast on %d threads: %.2f ms wall, %.2f ms CPU of all threads per raycast (%d casts)\n", cast_threads,
+                wall_ms / std::max(parallel_casts, 1), cpu_ms / std::max(parallel_casts, 1), parallel_casts);
+  }
   if (args.has("truth"))
     std::printf("against the frames' depth: %zu pixels with both, %zu off by more than 1 cm\n", truth_both,
                 truth_off_1cm);
