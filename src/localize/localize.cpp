@@ -234,7 +234,7 @@ void Localizer::accept_hypotheses(std::size_t nverified, const LocalizeParams& p
   });
   for (std::size_t k = 0; k < nverified && count < std::size_t(max_results); ++k) {
     LocalizedObject h = b_.verified[k];
-    if (h.model < 64 && per_model[h.model] >= params.max_per_model) continue;
+    if (h.model < kPerModelCounted && per_model[h.model] >= params.max_per_model) continue;
     LocalizedObject tmp;
     float overlap = 0;
     verify(h.model, h.T_world_object, params, tmp, -1, &overlap);
@@ -246,7 +246,7 @@ void Localizer::accept_hypotheses(std::size_t nverified, const LocalizeParams& p
     }
     claim(h.model, h.T_world_object, params, int32_t(count) + 1);
     b_.results[count++] = h;
-    if (h.model < 64) ++per_model[h.model];
+    if (h.model < kPerModelCounted) ++per_model[h.model];
   }
 }
 
@@ -262,7 +262,7 @@ void Localizer::recheck_weak_results(const LocalizeParams& params, int max_resul
     if (r.score < params.recheck_score && nweak < kRecheckMax) {
       weak_label[nweak] = int32_t(k) + 1;
       weak[nweak++] = r;
-      if (r.model >= 0 && r.model < 64) --per_model[r.model];
+      if (r.model >= 0 && r.model < kPerModelCounted) --per_model[r.model];
     } else {
       b_.results[kept++] = r;
     }
@@ -400,7 +400,7 @@ Status Localizer::localize(const LocalizeParams& params, int max_results, std::s
   }
   nverified = refine_all(nverified, params);
   for (std::size_t i = 0; i < scene_count_; ++i) b_.labels[i] = 0;  // now: claims of accepted poses
-  int per_model[64] = {};
+  int per_model[kPerModelCounted] = {};
   accept_hypotheses(nverified, params, max_results, count, per_model);
   // Second round: rest-pose hypotheses on the surface no accepted pose explains (labels == 0).
   // Then the recheck round on the weak results' surface.

@@ -205,7 +205,7 @@ int main(int argc, char** argv) {
           return 1;
         }
         for (std::size_t k = 0; k < pixels; ++k) {
-          const float z = core.maps.depth_m.data[k], m = float(depth[k]) / seq.intr.depth_scale;
+          const float z = cast_maps.depth_m.data[k], m = float(depth[k]) / seq.intr.depth_scale;
           if (!(z > 0.0f) || depth[k] == 0) continue;
           ++truth_both;
           truth_off_1cm += std::fabs(z - m) > 0.01f;

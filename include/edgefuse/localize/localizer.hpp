@@ -262,6 +262,9 @@ class Localizer {
   //! for rest poses and accepts the best explanations among those hypotheses and the weak results.
   void recheck_weak_results(const LocalizeParams& params, int max_results, std::size_t& count, int* per_model);
   static constexpr std::size_t kRecheckMax = 8;  //!< weak results rechecked per localisation
+  //! Models whose accepted results are counted against LocalizeParams::max_per_model (the length
+  //! of localize()'s per-model counts; results of models beyond it are not limited).
+  static constexpr int kPerModelCounted = 64;
   //! Slots of LocalizeBuffers::verified (hypotheses refined and verified in one round).
   std::size_t verified_capacity() const { return std::size_t(b_.models_max) * kClustersPerModel; }
   //! Sorts the refined hypotheses verified[0, n) best first and appends those not mostly claimed by
