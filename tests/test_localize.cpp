@@ -127,6 +127,9 @@ TEST(Localize, CorruptModelIsRejectedAtStartUp) {
   CHECK(loc.add_model("bad", flat, 3, bad, 1, params, index) == Status::kInvalidArgument);
   const Vec3f nan_v[3] = {Vec3f(0, 0, 0), Vec3f(std::nanf(""), 0, 0), Vec3f(0, 0.01f, 0)};
   CHECK(loc.add_model("nan", nan_v, 3, tri, 1, params, index) == Status::kInvalidArgument);
+  // Finite garbage (a corrupt file's 1e30) is refused too: its grid cells would overflow int32.
+  const Vec3f far_v[3] = {Vec3f(0, 0, 0), Vec3f(1e30f, 0, 0), Vec3f(0, 0.01f, 0)};
+  CHECK(loc.add_model("far", far_v, 3, tri, 1, params, index) == Status::kInvalidArgument);
   LONGS_EQUAL(0, loc.model_count());
   // Capacity: the third model does not fit a two-model board.
   std::vector<Vec3f> v;
@@ -137,6 +140,28 @@ TEST(Localize, CorruptModelIsRejectedAtStartUp) {
                         index) == Status::kOk);
   CHECK(loc.add_model("box", v.data(), v.size(), reinterpret_cast<const uint32_t(*)[3]>(t.data()), t.size(), params,
                       index) == Status::kCapacityExceeded);
+}
+
+// A cloud file with garbage coordinates (finite, far beyond any cell): those points are skipped
+// like non-finite ones, the rest is localised as before (UBSan found the int32 cell overflow).
+TEST(Localize, SceneSkipsPointsBeyondTheWorkspace) {
+  Localizer loc;
+  CHECK(loc.init(buffers()) == Status::kOk);
+  std::vector<ScenePoint> pts;
+  for (int i = 0; i < 200; ++i)
+    pts.push_back(ScenePoint{Vec3f(0.001f * float(i % 20), 0.001f * float(i / 20), 0.5f), Vec3f(0, 0, -1), uint32_t(i), {}});
+  const float garbage[] = {1e30f, -3e9f, kLocalizeCoordMaxM * 1.001f, std::nanf("")};
+  for (int k = 0; k < 4; ++k)
+    pts.push_back(ScenePoint{Vec3f(0.01f, garbage[k], 0.5f), Vec3f(0, 0, -1), uint32_t(200 + k), {}});
+  pts.push_back(ScenePoint{Vec3f(kLocalizeCoordMaxM, 0, 0.5f), Vec3f(0, 0, -1), 204u, {}});  // the limit itself is in
+  SceneContext ctx;
+  CHECK(loc.set_scene_points(pts.data(), pts.size(), ctx, nullptr, 0.005f) == Status::kOk);
+  LONGS_EQUAL(201, loc.scene_count());
+  for (std::size_t i = 0; i < loc.scene_count(); ++i) CHECK(localizable(loc.scene()[i].p));
+  // A grid cell so small that 1 km would overflow its integer cells is refused, state unchanged.
+  CHECK(loc.set_scene_points(pts.data(), pts.size(), ctx, nullptr, kLocalizeGridCellMinM * 0.5f) ==
+        Status::kInvalidArgument);
+  LONGS_EQUAL(201, loc.scene_count());
 }
 
 TEST(Localize, SegmentsTwoBoxesAndAllocatesNothingWhileLocalising) {

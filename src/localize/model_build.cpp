@@ -47,7 +47,7 @@ Status Localizer::add_model(const char* name, const Vec3f* vertices, std::size_t
   double area = 0;
   for (std::size_t t = 0; t < triangle_count; ++t) {
     for (int k = 0; k < 3; ++k)
-      if (triangles[t][k] >= vertex_count || !vertices[triangles[t][k]].allFinite()) return Status::kInvalidArgument;
+      if (triangles[t][k] >= vertex_count || !localizable(vertices[triangles[t][k]])) return Status::kInvalidArgument;
     const Vec3f& a = vertices[triangles[t][0]];
     area += 0.5 * double((vertices[triangles[t][1]] - a).cross(vertices[triangles[t][2]] - a).norm());
   }
@@ -95,12 +95,12 @@ Status Localizer::add_model_cloud(const char* name, const OrientedPoint* points,
   // Keep an even share of the points (every k-th) so the table holds the whole model.
   std::size_t valid = 0;
   for (std::size_t i = 0; i < count; ++i)
-    if (points[i].p.allFinite() && points[i].n.allFinite()) ++valid;
+    if (localizable(points[i].p) && points[i].n.allFinite()) ++valid;
   if (valid < 16) return Status::kInvalidArgument;
   const std::size_t stride = (valid + b_.model_points_max - 1) / b_.model_points_max;
   std::size_t n = 0, seen = 0;
   for (std::size_t i = 0; i < count && n < b_.model_points_max; ++i) {
-    if (!points[i].p.allFinite() || !points[i].n.allFinite()) continue;
+    if (!localizable(points[i].p) || !points[i].n.allFinite()) continue;
     if (seen++ % stride == 0) dense[n++] = OrientedPoint{points[i].p, points[i].n.normalized()};
   }
   const Status s = finish_model(name, n, params, model_index);

@@ -13,11 +13,11 @@ namespace edgefuse {
 Status Localizer::set_scene(const SurfacePoint* points, std::size_t count, const SceneContext& context,
                             const TsdfVolume* volume, float grid_cell_m) {
   if (!b_.scene) return Status::kNotInitialised;
-  if (!(grid_cell_m > 0)) return Status::kInvalidArgument;
+  if (!(grid_cell_m >= kLocalizeGridCellMinM)) return Status::kInvalidArgument;
   std::size_t n = 0;
   Status s = Status::kOk;
   for (std::size_t i = 0; i < count; ++i) {
-    if (!points[i].position.allFinite() || !points[i].normal.allFinite()) continue;
+    if (!localizable(points[i].position) || !points[i].normal.allFinite()) continue;
     if (n >= b_.scene_points_max) {
       s = Status::kOutputTruncated;
       break;
@@ -34,11 +34,11 @@ Status Localizer::set_scene(const SurfacePoint* points, std::size_t count, const
 Status Localizer::set_scene_points(const ScenePoint* points, std::size_t count, const SceneContext& context,
                                    const TsdfVolume* volume, float grid_cell_m) {
   if (!b_.scene) return Status::kNotInitialised;
-  if (!(grid_cell_m > 0)) return Status::kInvalidArgument;
+  if (!(grid_cell_m >= kLocalizeGridCellMinM)) return Status::kInvalidArgument;
   std::size_t n = 0;
   Status s = Status::kOk;
   for (std::size_t i = 0; i < count; ++i) {
-    if (!points[i].p.allFinite() || !points[i].n.allFinite()) continue;
+    if (!localizable(points[i].p) || !points[i].n.allFinite()) continue;
     if (n >= b_.scene_points_max) {
       s = Status::kOutputTruncated;
       break;

@@ -433,18 +433,23 @@ int cmd_localize(int argc, char** argv) {
                 xs == Status::kOutputTruncated || ss == Status::kOutputTruncated ? " (truncated at capacity)" : "");
     fused = true;
   } else {
+    // The readers' messages begin with the file's name (and line); only the extension test needs it added.
     if (!(ends_with(input, ".pcd") ? io::read_pcd(input, in_cloud, err) : ends_with(input, ".ply")
                                                                               ? io::read_ply(input, in_cloud, err)
-                                                                              : (err = "expected a folder, .ply or .pcd", false))) {
-      std::fprintf(stderr, "edgefuse localize: %s: %s\n", input.c_str(), err.c_str());
+                                                                              : (err = input + ": expected a folder, .ply or .pcd", false))) {
+      std::fprintf(stderr, "edgefuse localize: %s\n", err.c_str());
       return 1;
     }
     std::vector<ScenePoint> pts;
     const double t_normals = cpu_ms();  // normals of a cloud are not part of the pose-list clock: own figure
-    if (!cloud_scene_points(in_cloud, pts, err)) {
+    std::size_t beyond = 0;
+    if (!cloud_scene_points(in_cloud, pts, beyond, err)) {
       std::fprintf(stderr, "edgefuse localize: %s: %s\n", input.c_str(), err.c_str());
       return 1;
     }
+    if (beyond > 0)
+      std::fprintf(stderr, "edgefuse localize: %s: %zu points lie beyond %.0f m of the origin (not a robot cell's "
+                   "coordinates): ignored\n", input.c_str(), beyond, double(kLocalizeCoordMaxM));
     std::printf("normals_cpu_ms=%.1f (cloud normals and scene points, before the localisation clock starts)\n",
                 cpu_ms() - t_normals);
     ctx.viewpoint_m = Vec3f::Zero();  // a cloud is in its camera's frame

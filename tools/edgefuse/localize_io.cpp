@@ -40,11 +40,11 @@ void estimate_normals_pca(const std::vector<Vec3f>& points, float radius_m, cons
   const float inv = 1.0f / radius_m;
   std::unordered_map<int64_t, std::vector<uint32_t>> grid;
   for (uint32_t i = 0; i < points.size(); ++i)
-    if (points[i].allFinite()) grid[cell_of(points[i], inv)].push_back(i);
+    if (localizable(points[i])) grid[cell_of(points[i], inv)].push_back(i);
   normals.assign(points.size(), Vec3f::Constant(std::nanf("")));
   for (uint32_t i = 0; i < points.size(); ++i) {
     const Vec3f& p = points[i];
-    if (!p.allFinite()) continue;
+    if (!localizable(p)) continue;
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
     int n = 0;
@@ -84,8 +84,8 @@ bool load_model(Localizer& loc, const std::string& path, const LocalizeParams& p
       s = loc.add_model(name.c_str(), mesh.vertices.data(), mesh.vertices.size(),
                         reinterpret_cast<const uint32_t(*)[3]>(tri.data()), mesh.triangles.size(), params, index);
       if (s == Status::kInvalidArgument) {
-        err = "the mesh has no usable surface (degenerate or zero-area triangles, non-finite vertices or "
-              "indices out of range; " + std::to_string(mesh.vertices.size()) + " vertices, " +
+        err = "the mesh has no usable surface (degenerate or zero-area triangles, vertices that are not finite "
+              "or lie beyond 1 km, or indices out of range; " + std::to_string(mesh.vertices.size()) + " vertices, " +
               std::to_string(mesh.triangles.size()) + " triangles)";
         return false;
       }
@@ -102,7 +102,7 @@ bool load_model(Localizer& loc, const std::string& path, const LocalizeParams& p
   if (normals.empty()) estimate_normals_pca(cloud.points, 0.01f, Vec3f::Zero(), normals);
   std::vector<OrientedPoint> pts;
   for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (cloud.points[i].allFinite() && normals[i].allFinite()) pts.push_back(OrientedPoint{cloud.points[i], normals[i]});
+    if (localizable(cloud.points[i]) && normals[i].allFinite()) pts.push_back(OrientedPoint{cloud.points[i], normals[i]});
   s = loc.add_model_cloud(name.c_str(), pts.data(), pts.size(), params, index);
   if (s != Status::kOk) {
     err = s == Status::kInvalidArgument ? "too few points with normals to make a model (" + std::to_string(pts.size()) + ")"
@@ -112,7 +112,7 @@ bool load_model(Localizer& loc, const std::string& path, const LocalizeParams& p
   return true;
 }
 
-bool cloud_scene_points(const io::PointCloud& cloud, std::vector<ScenePoint>& out, std::string& err) {
+bool cloud_scene_points(const io::PointCloud& cloud, std::vector<ScenePoint>& out, std::size_t& beyond, std::string& err) {
   std::vector<Vec3f> normals = cloud.normals;
   if (normals.empty()) {
     if (cloud.organised()) {
@@ -130,10 +130,15 @@ bool cloud_scene_points(const io::PointCloud& cloud, std::vector<ScenePoint>& ou
     c.a = 255;
     return c;
   };
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (cloud.points[i].allFinite() && normals[i].allFinite())
-      out.push_back(ScenePoint{cloud.points[i], normals[i].normalized(), uint32_t(i),
-                                colour(i)});
+  beyond = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!localizable(cloud.points[i])) {
+      beyond += cloud.points[i].allFinite();
+      continue;
+    }
+    if (normals[i].allFinite())
+      out.push_back(ScenePoint{cloud.points[i], normals[i].normalized(), uint32_t(i), colour(i)});
+  }
   if (out.size() < 100) {
     err = "fewer than 100 points with normals";
     return false;

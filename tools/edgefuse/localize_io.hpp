@@ -16,7 +16,9 @@ namespace edgefuse::cli {
 bool load_model(Localizer& loc, const std::string& path, const LocalizeParams& params, int& index, std::string& err);
 
 //! Scene points of a camera-frame cloud: its normals, or organised-neighbour / PCA normals.
-bool cloud_scene_points(const io::PointCloud& cloud, std::vector<ScenePoint>& out, std::string& err);
+//! \param beyond set to the number of finite points that are not localizable() (skipped)
+//! \return false with `err` when fewer than 100 points with normals remain
+bool cloud_scene_points(const io::PointCloud& cloud, std::vector<ScenePoint>& out, std::size_t& beyond, std::string& err);
 
 //! Normals by PCA over neighbours within radius_m, turned towards `viewpoint` (host helper).
 void estimate_normals_pca(const std::vector<Vec3f>& points, float radius_m, const Vec3f& viewpoint,

@@ -10,6 +10,20 @@
 
 namespace edgefuse {
 
+//! Largest |coordinate| (metres) of a point the localiser takes, in the scene or in a model: far
+//! beyond any robot cell, and small enough that its neighbour grids' integer cells (down to the
+//! smallest grid cell, kLocalizeGridCellMinM) stay far inside int32. Points beyond it (garbage in a
+//! cloud file, e.g. 1e30) are skipped like non-finite ones instead of overflowing those cells.
+inline constexpr float kLocalizeCoordMaxM = 1000.0f;
+//! Smallest neighbour-grid cell set_scene accepts (0.1 mm): 1 km / 0.1 mm = 1e7 cells < 2^31.
+inline constexpr float kLocalizeGridCellMinM = 1e-4f;
+
+//! True for a point the localiser takes: finite, every coordinate within +-kLocalizeCoordMaxM.
+//! \param p position in metres
+inline bool localizable(const Vec3f& p) {
+  return p.allFinite() && p.cwiseAbs().maxCoeff() <= kLocalizeCoordMaxM;
+}
+
 //! A surface sample: position and unit outward normal (model frame or world frame).
 struct OrientedPoint {
   Vec3f p;

@@ -140,7 +140,8 @@ class Localizer {
   //! \param triangles vertex index triples  \param triangle_count their number
   //! \param params sampling steps
   //! \param model_index index of the new model
-  //! \return kInvalidArgument for an empty/degenerate mesh or bad indices, kCapacityExceeded when the
+  //! \return kInvalidArgument for an empty/degenerate mesh, bad indices or a used vertex that is not
+  //!         localizable(), kCapacityExceeded when the
   //!         board holds no more models
   Status add_model(const char* name, const Vec3f* vertices, std::size_t vertex_count, const uint32_t (*triangles)[3],
                    std::size_t triangle_count, const LocalizeParams& params, int& model_index);
@@ -156,11 +157,13 @@ class Localizer {
     return b_.model_points + std::size_t(i) * b_.model_points_max;
   }
 
-  //! Loads the scene: world points with unit normals (non-finite ones skipped).
+  //! Loads the scene: world points with unit normals (points that are not localizable() and
+  //! non-finite normals are skipped).
   //! \param points the fused surface (or a cloud with normals)  \param count number of points
   //! \param context viewpoint (and, when known, the floor)
   //! \param volume the TSDF the points came from (free-space check), or null for a plain cloud
-  //! \param grid_cell_m nearest-neighbour grid cell (about 2-3 point spacings)
+  //! \param grid_cell_m nearest-neighbour grid cell (about 2-3 point spacings; at least
+  //!        kLocalizeGridCellMinM, else kInvalidArgument)
   Status set_scene(const SurfacePoint* points, std::size_t count, const SceneContext& context,
                    const TsdfVolume* volume, float grid_cell_m);
   //! As set_scene for ScenePoints that already carry their source index.
