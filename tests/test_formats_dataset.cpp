@@ -87,7 +87,7 @@ TEST(FormatsDataset, BrokenTumFolders) {
   write_bytes(root + "/depth.txt", depth_txt + "10.05 depth/10.000000.png\n");
   expect_open_fails(root, "", "depth.txt:5: timestamp 10.050000 is not after the previous 10.066000");
   write_bytes(root + "/depth.txt", depth_txt + "10.5\n");
-  expect_open_fails(root, "", "depth.txt:5: expected 'timestamp path', got 1 values");
+  expect_open_fails(root, "", "depth.txt:5: expected 'timestamp path', got 1 value");
   write_bytes(root + "/depth.txt", garbage(3000, 7));
   expect_open_fails(root, "", root + "/depth.txt:");
   write_bytes(root + "/depth.txt", "# nothing\n");

@@ -28,8 +28,8 @@ bool read_stamp_list(const std::string& root, const std::string& list_path, std:
     if (is_blank_or_comment(line)) continue;
     split_ws(line, tok);
     if (tok.size() != 2) {
-      err = format("%s:%d: expected 'timestamp path', got %zu values", list_path.c_str(), lines.line_number(),
-                   tok.size());
+      err = format("%s:%d: expected 'timestamp path', got %zu value%s", list_path.c_str(), lines.line_number(),
+                   tok.size(), tok.size() == 1 ? "" : "s");
       return false;
     }
     double t = 0;

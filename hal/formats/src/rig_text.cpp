@@ -106,7 +106,8 @@ bool read_profiles_txt(const std::string& path, int beams, ProfileSet& profiles,
     out.beams = beams;
     const bool ok = for_each_record(path, "laser profiles", err, [&](int ln, const std::vector<std::string_view>& t) {
       if (t.size() != std::size_t(beams) + 1) {
-        err = format("%s:%d: expected a timestamp and %d ranges, got %zu values", path.c_str(), ln, beams, t.size());
+        err = format("%s:%d: expected a timestamp and %d ranges, got %zu value%s", path.c_str(), ln, beams, t.size(),
+                     t.size() == 1 ? "" : "s");
         return false;
       }
       double stamp = 0;
