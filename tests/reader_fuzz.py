@@ -16,7 +16,8 @@ one wrote down. Seeded: a failure prints the mutation and keeps the input under 
 Seeds (built from DATA_DIR, never copied into the repository): a binary_compressed PCD
 (mosd_learn/learn0.pcd), a binary PLY mesh (bin_rig_a/models/can.ply) as a cloud and as a
 --model, a 16-bit depth PNG and camera.toml (lmo_can_frame), a TUM sequence's depth.txt and
-groundtruth.txt (tum_fr1_xyz_37), and binary PCD, ascii PCD and ascii PLY written by this script
+groundtruth.txt (tum_fr1_xyz_37), the rig set's rig.toml, extrinsics.txt and laser
+profiles.txt (bin_rig_a, fused with --sensors xtion,laser), and binary PCD, ascii PCD and ascii PLY written by this script
 from `edgefuse fuse lmo_can_frame`'s cloud. Skips (exit 0 with a message) when DATA_DIR lacks them.
 """
 
@@ -123,6 +124,15 @@ def write_derived_seeds(points, out_dir):
     return paths
 
 
+def link_tree(src, dst):
+    """dst mirrors src: a folder per folder, a symbolic link per file (the corrupted file replaces its link)."""
+    for root, dirs, files in os.walk(src):
+        here = os.path.join(dst, os.path.relpath(root, src))
+        os.makedirs(here, exist_ok=True)
+        for f in files:
+            os.symlink(os.path.join(root, f), os.path.join(here, f))
+
+
 class Target:
     """One seed file, where its corrupted copy goes and the command that reads it."""
 
@@ -142,7 +152,8 @@ def main():
     a = ap.parse_args()
 
     need = ["mosd_learn/learn0.pcd", "bin_rig_a/models/can.ply", "lmo_can_frame/depth.png",
-            "lmo_can_frame/camera.toml", "tum_fr1_xyz_37/depth.txt", "tum_fr1_xyz_37/groundtruth.txt"]
+            "lmo_can_frame/camera.toml", "tum_fr1_xyz_37/depth.txt", "tum_fr1_xyz_37/groundtruth.txt",
+            "bin_rig_a/rig.toml", "bin_rig_a/extrinsics.txt", "bin_rig_a/laser/profiles.txt"]
     missing = [p for p in need if not os.path.isfile(os.path.join(a.data, p))]
     if missing:
         print("SKIP: %s lacks %s (the shared test data)" % (a.data, ", ".join(missing)))
@@ -178,6 +189,9 @@ def main():
         Target("camera.toml", os.path.join(D, "lmo_can_frame/camera.toml"), "text", "frame"),
         Target("TUM depth.txt", os.path.join(D, "tum_fr1_xyz_37/depth.txt"), "text", "tum"),
         Target("TUM groundtruth.txt", os.path.join(D, "tum_fr1_xyz_37/groundtruth.txt"), "text", "tum"),
+        Target("rig.toml", os.path.join(D, "bin_rig_a/rig.toml"), "text", "rig"),
+        Target("rig extrinsics.txt", os.path.join(D, "bin_rig_a/extrinsics.txt"), "text", "rig"),
+        Target("laser profiles.txt", os.path.join(D, "bin_rig_a/laser/profiles.txt"), "text", "rig"),
     ]
     rng = random.Random(a.seed)
     scene = derived["binary.pcd"]  # the scene for --model runs
@@ -204,16 +218,17 @@ def main():
                     shutil.copyfile(os.path.join(D, "lmo_can_frame", f), os.path.join(case_dir, f))
                 path = os.path.join(case_dir, os.path.basename(t.seed))
                 args = ["fuse", case_dir, "--volume", "64", "--out", out + ".ply"]
-            else:  # a TUM folder: its lists point at the shared data's images
-                src = os.path.join(D, "tum_fr1_xyz_37")
-                for f in os.listdir(src):
-                    s = os.path.join(src, f)
-                    if os.path.isdir(s):
-                        os.symlink(s, os.path.join(case_dir, f))
-                    else:
-                        shutil.copyfile(s, os.path.join(case_dir, f))
+            elif t.place == "tum":  # a TUM folder: its lists point at the shared data's images
+                link_tree(os.path.join(D, "tum_fr1_xyz_37"), case_dir)
                 path = os.path.join(case_dir, os.path.basename(t.seed))
                 args = ["fuse", case_dir, "--frames", "2", "--volume", "64", "--out", out + ".ply"]
+            else:  # the rig set, fused with its line scanner (rig.toml, extrinsics, laser profiles)
+                link_tree(os.path.join(D, "bin_rig_a"), case_dir)
+                path = os.path.join(case_dir, os.path.relpath(t.seed, os.path.join(D, "bin_rig_a")))
+                args = ["fuse", case_dir, "--sensors", "xtion,laser", "--frames", "2", "--volume", "64",
+                        "--out", out + ".ply"]
+            if os.path.islink(path):
+                os.unlink(path)
             with open(path, "wb") as f:
                 f.write(mdata)
             r = edgefuse(args)

@@ -179,7 +179,7 @@ TEST(FormatsText, Profiles) {
   std::string bad = text;
   const std::size_t l4 = bad.find("1002.5");
   bad.erase(bad.find(" 0.223404", l4), 9);
-  check_bad_text(dir, "p.txt", bad, rd, "p.txt:4: expected a timestamp and 8 ranges, got 8 values");
+  check_bad_text(dir, "p.txt", bad, rd, "p.txt:4: expected 9 values (a timestamp and 8 ranges), got 8");
   check_bad_text(dir, "p.txt", "1 0 0 0 0 0 0 0 -0.1\n", rd, "p.txt:1: range 7 is '-0.1'");
   check_bad_text(dir, "p.txt", "1 0 0 0 0 0 0 0 nan\n", rd, "range 7 is 'nan'");
   check_bad_text(dir, "p.txt", "2 0 0 0 0 0 0 0 0\n1 0 0 0 0 0 0 0 0\n", rd, "p.txt:2: timestamp 1.000000 is not after");

@@ -106,8 +106,8 @@ bool read_profiles_txt(const std::string& path, int beams, ProfileSet& profiles,
     out.beams = beams;
     const bool ok = for_each_record(path, "laser profiles", err, [&](int ln, const std::vector<std::string_view>& t) {
       if (t.size() != std::size_t(beams) + 1) {
-        err = format("%s:%d: expected a timestamp and %d ranges, got %zu value%s", path.c_str(), ln, beams, t.size(),
-                     t.size() == 1 ? "" : "s");
+        err = format("%s:%d: expected %d values (a timestamp and %d ranges), got %zu", path.c_str(), ln, beams + 1, beams,
+                     t.size());
         return false;
       }
       double stamp = 0;
