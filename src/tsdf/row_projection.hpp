@@ -242,7 +242,8 @@ inline bool project_box(const LaneCamera<float>& cam, const float c0[3], const f
   out.z_hi = lane_max(z_max);
   // The four image bounds at once: rows (u_min, v_min, -u_max, -v_max) transposed, so that lane-
   // wise minima give (u_lo, v_lo, -u_hi, -v_hi) (a maximum is minus the minimum of the negated
-  // values, exactly), clamped by one minimum with 2^20, signs restored, floored (trunc, one less
+  // values, exactly), clamped to +-2^20 (a minimum and a maximum: a corner far outside the image
+  // must not overflow the int32 conversion), signs restored, floored (trunc, one less
   // where that is above: the same integers as floor_int) and widened by the bilinear margin.
   const F4 n_u = -u_max, n_v = -v_max;
   const F4 t0 = __builtin_shuffle(u_min, v_min, I4{0, 4, 1, 5}), t1 = __builtin_shuffle(u_min, v_min, I4{2, 6, 3, 7});
@@ -250,8 +251,9 @@ inline bool project_box(const LaneCamera<float>& cam, const float c0[3], const f
   const F4 k0 = __builtin_shuffle(t0, t2, I4{0, 1, 4, 5}), k1 = __builtin_shuffle(t0, t2, I4{2, 3, 6, 7});
   const F4 k2 = __builtin_shuffle(t1, t3, I4{0, 1, 4, 5}), k3 = __builtin_shuffle(t1, t3, I4{2, 3, 6, 7});
   auto vmin = [](F4 a, F4 b) { return a < b ? a : b; };
+  auto vmax = [](F4 a, F4 b) { return a > b ? a : b; };
   const F4 kBound = {float(1 << 20), float(1 << 20), float(1 << 20), float(1 << 20)};
-  const F4 bounds = vmin(vmin(vmin(k0, k1), vmin(k2, k3)), kBound) * F4{1.0f, 1.0f, -1.0f, -1.0f};
+  const F4 bounds = vmax(vmin(vmin(vmin(k0, k1), vmin(k2, k3)), kBound), -kBound) * F4{1.0f, 1.0f, -1.0f, -1.0f};
   const I4 t = __builtin_convertvector(bounds, I4);
   const I4 fl = t + (bounds < __builtin_convertvector(t, F4));
   const I4 px = fl + I4{-1, -1, 2, 2};

@@ -148,7 +148,10 @@ bool read_pinhole_fields(TomlFields& f, PinholeIntrinsics& intr, bool ranges_req
     return f.fail(format("min_range (%g) must be < max_range (%g)", mn, mx));
   out.min_range_m = float(mn);
   out.max_range_m = float(mx);
-  if (out.validate() != Status::kOk) return f.fail("intrinsics are invalid");  // float overflow of huge values
+  if (out.validate() != Status::kOk)  // float overflow of huge values, or numbers no camera has
+    return f.fail(format("fx, fy, cx, cy must lie within %g pixels (%g x the larger image size): got %g, %g, %g, %g",
+                         double(PinholeIntrinsics::kMaxPixelsPerSize * float(w > h ? w : h)),
+                         double(PinholeIntrinsics::kMaxPixelsPerSize), fx, fy, cx, cy));
   intr = out;
   return true;
 }

@@ -23,10 +23,19 @@ struct PinholeIntrinsics {
   float max_range_m = 10.0f; //!< farthest valid z-depth
   float depth_scale = 1000;  //!< raw depth value / depth_scale = z-depth in metres
 
-  //! Checks that the numbers describe a camera (positive sizes and focal lengths, ordered ranges).
+  //! Largest focal length and |principal point| in image sizes (the larger of width and height):
+  //! a field of view of 0.06 degrees, far narrower than any depth camera. Beyond it the numbers are
+  //! garbage (a corrupt camera.toml's 5.7e11), not optics.
+  static constexpr float kMaxPixelsPerSize = 1000.0f;
+
+  //! Checks that the numbers describe a camera (positive sizes, focal lengths in (0, 1000 sizes],
+  //! principal point within 1000 sizes of the origin, ordered ranges).
   Status validate() const {
     if (width <= 0 || height <= 0 || !(fx > 0) || !(fy > 0) || !(depth_scale > 0) ||
         !(min_range_m >= 0) || !(max_range_m > min_range_m))
+      return Status::kInvalidArgument;
+    const float limit = kMaxPixelsPerSize * float(width > height ? width : height);
+    if (!(fx <= limit) || !(fy <= limit) || !(cx >= -limit && cx <= limit) || !(cy >= -limit && cy <= limit))
       return Status::kInvalidArgument;
     return Status::kOk;
   }
