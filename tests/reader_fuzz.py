@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Mutation test of the file readers through the `edgefuse` program (corrupt-input rule of DEVELOPERS.md).
 
-  reader_fuzz.py EDGEFUSE DATA_DIR WORK_DIR [--count N] [--seed S] [--keep]
+  reader_fuzz.py EDGEFUSE DATA_DIR WORK_DIR [--count N] [--seed S] [--edgefused BIN --board-dir DIR] [--verbose]
 
 Takes valid inputs of every file format the program reads, corrupts them the ways files get
 corrupted (bit flips, truncation anywhere and inside the header, zeroed and repeated blocks, header
@@ -18,7 +18,8 @@ Seeds (built from DATA_DIR, never copied into the repository): a binary_compress
 --model, a 16-bit depth PNG and camera.toml (lmo_can_frame), a TUM sequence's depth.txt and
 groundtruth.txt (tum_fr1_xyz_37), the rig set's rig.toml, extrinsics.txt and laser
 profiles.txt (bin_rig_a, fused with --sensors xtion,laser), and binary PCD, ascii PCD and ascii PLY written by this script
-from `edgefuse fuse lmo_can_frame`'s cloud. Skips (exit 0 with a message) when DATA_DIR lacks them.
+from `edgefuse fuse lmo_can_frame`'s cloud. With --edgefused, also the runtime configuration
+(DIR/host-sim/edgefused.toml, read by `edgefused --check --config FILE`). Skips (exit 0 with a message) when DATA_DIR lacks them.
 """
 
 import argparse
@@ -149,6 +150,8 @@ def main():
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--timeout", type=float, default=60.0, help="seconds per run")
     ap.add_argument("--verbose", action="store_true", help="print every corruption and its outcome")
+    ap.add_argument("--edgefused", help="the edgefused binary: its --check reads a corrupted edgefused.toml")
+    ap.add_argument("--board-dir", help="the repository's board/ folder (with --edgefused)")
     a = ap.parse_args()
 
     need = ["mosd_learn/learn0.pcd", "bin_rig_a/models/can.ply", "lmo_can_frame/depth.png",
@@ -164,10 +167,11 @@ def main():
 
     def edgefuse(args):
         try:
-            p = subprocess.run([a.edgefuse] + args, capture_output=True, timeout=a.timeout)
+            cmd = args[1:] if args[0] == a.edgefused else [a.edgefuse] + args
+            p = subprocess.run(cmd, capture_output=True, timeout=a.timeout)
         except subprocess.TimeoutExpired:
             return None
-        return p.returncode, p.stderr.decode("utf-8", "replace")
+        return p.returncode, p.stderr.decode("utf-8", "replace"), p.stdout.decode("utf-8", "replace")
 
     # The derived seeds come from the program's own writer (a cloud of the LINEMOD frame).
     fused = os.path.join(seeds_dir, "lmo.pcd")
@@ -193,6 +197,9 @@ def main():
         Target("rig extrinsics.txt", os.path.join(D, "bin_rig_a/extrinsics.txt"), "text", "rig"),
         Target("laser profiles.txt", os.path.join(D, "bin_rig_a/laser/profiles.txt"), "text", "rig"),
     ]
+    if a.edgefused:
+        targets.append(Target("edgefused.toml", os.path.join(os.path.abspath(a.board_dir), "host-sim/edgefused.toml"),
+                              "text", "config"))
     rng = random.Random(a.seed)
     scene = derived["binary.pcd"]  # the scene for --model runs
     failures = 0
@@ -201,8 +208,9 @@ def main():
         data = open(t.seed, "rb").read()
         hlen = header_length(data, t.kind)
         accepted = refused = 0
-        for k in range(a.count):
-            mdata, how = mutate(rng, data, hlen)
+        # Copy -1 is the seed unchanged: it must be accepted, or the corrupted copies prove nothing.
+        for k in range(-1, a.count):
+            mdata, how = (data, "unchanged") if k < 0 else mutate(rng, data, hlen)
             case_dir = os.path.join(a.work, "case")
             shutil.rmtree(case_dir, ignore_errors=True)
             os.makedirs(case_dir)
@@ -218,6 +226,9 @@ def main():
                     shutil.copyfile(os.path.join(D, "lmo_can_frame", f), os.path.join(case_dir, f))
                 path = os.path.join(case_dir, os.path.basename(t.seed))
                 args = ["fuse", case_dir, "--volume", "64", "--out", out + ".ply"]
+            elif t.place == "config":
+                path = os.path.join(case_dir, "edgefused.toml")
+                args = [a.edgefused, a.edgefused, "--board", "host-sim", "--check", "--config", path]
             elif t.place == "tum":  # a TUM folder: its lists point at the shared data's images
                 link_tree(os.path.join(D, "tum_fr1_xyz_37"), case_dir)
                 path = os.path.join(case_dir, os.path.basename(t.seed))
@@ -236,9 +247,12 @@ def main():
             if r is None:
                 problem = "no answer within %.0f s" % a.timeout
             else:
-                rc, err = r
+                rc, err, out_text = r
                 if rc < 0 or any(m in err for m in SANITIZER_MARKS):
                     problem = "crashed (exit %d): %s" % (rc, err.strip()[-2000:])
+                elif k < 0:
+                    if rc != 0 or (t.place == "config" and "configuration OK" not in out_text):
+                        problem = "the unchanged seed is refused (exit %d): %s" % (rc, err.strip()[-500:])
                 elif rc == 0:
                     accepted += 1
                 else:
@@ -255,7 +269,7 @@ def main():
                 os.makedirs(os.path.dirname(keep), exist_ok=True)
                 shutil.copytree(case_dir, keep, symlinks=True)
                 print("FAIL: %s, copy %d (%s): %s\n      input kept in %s\n      command: %s %s" %
-                      (t.name, k, how, problem, keep, a.edgefuse, " ".join(args)))
+                      (t.name, k, how, problem, keep, "" if args[0] == a.edgefused else a.edgefuse, " ".join(args)))
         print("%-22s %6d %8d %8d" % (t.name, a.count, accepted, refused))
     if failures:
         print("FAIL: %d corrupted inputs were not handled (seed %d)" % (failures, a.seed))

@@ -3,7 +3,7 @@
 // IDLE -> MAPPING -> LOCALIZE -> REPORT in one poll loop. SIGTERM/SIGINT stop it cleanly; under
 // systemd it reports READY and feeds the watchdog. Everything is allocated before the loop.
 //
-//   edgefused [--board NAME] [--config FILE] [--set KEY=VALUE]...
+//   edgefused [--board NAME] [--config FILE] [--set KEY=VALUE]... [--check]
 #include <poll.h>
 #include <signal.h>
 #include <time.h>
@@ -31,10 +31,12 @@ using namespace edgefuse;
 namespace {
 
 const char* kUsage =
-    "usage: edgefused [--board NAME] [--config FILE] [--set KEY=VALUE]...\n"
+    "usage: edgefused [--board NAME] [--config FILE] [--set KEY=VALUE]... [--check]\n"
     "  --board NAME     board folder under board/ (default: the build's board)\n"
     "  --config FILE    runtime configuration (TOML); every key is a parameter (param get lists them)\n"
-    "  --set KEY=VALUE  override one parameter, e.g. --set link.tcp_port=6000 (repeatable)\n";
+    "  --set KEY=VALUE  override one parameter, e.g. --set link.tcp_port=6000 (repeatable)\n"
+    "  --check          check the board data, the configuration and the --set values, print\n"
+    "                   'configuration OK' and exit 0 (1 with the error) without opening devices or ports\n";
 
 volatile sig_atomic_t g_stop = 0;
 void on_signal(int sig) { g_stop = sig; }
@@ -149,6 +151,7 @@ int main(int argc, char** argv) {
   std::string board = build_board().name, config, err;
   std::string overrides[64];
   int override_count = 0;
+  bool check_only = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
@@ -163,6 +166,8 @@ int main(int argc, char** argv) {
       board = argv[++i];
     } else if (a == "--config") {
       config = argv[++i];
+    } else if (a == "--check") {
+      check_only = true;
     } else if (a == "--set") {
       if (override_count == 64) {
         std::fprintf(stderr, "edgefused: more than 64 --set options\n");
@@ -218,12 +223,25 @@ int main(int argc, char** argv) {
                  "to share the link's port\n", console_spec.c_str());
     return 1;
   }
+  const std::string source = g_params.get_text(runtime::kPipelineSource);
+  if (source != "fusion" && source != "simulated") {
+    std::fprintf(stderr, "edgefused: pipeline.source = '%s' is not one of fusion|simulated\n", source.c_str());
+    return 1;
+  }
+  const std::string poses = g_params.get_text(runtime::kTrackingPoses);
+  if (poses != "known" && poses != "tracked" && poses != "auto") {
+    std::fprintf(stderr, "edgefused: tracking.poses = '%s' is not one of auto|known|tracked\n", poses.c_str());
+    return 1;
+  }
   std::printf("edgefused %s: board %s, config %s, voxel %g m, truncation %g m\n", PROJECT_VERSION, board.c_str(),
               config.empty() ? "(defaults)" : config.c_str(), g_params.get_number(runtime::kTsdfVoxelM),
               g_params.get_number(runtime::kTsdfTruncM));
+  if (check_only) {  // everything above reads files only; the devices, ports and files below are not touched
+    std::printf("configuration OK\n");
+    return 0;
+  }
   // The pipeline: the real one (devices from the board's hal.toml) or the simulated pose source.
   runtime::Pipeline* pipeline = &g_fusion;
-  const std::string source = g_params.get_text(runtime::kPipelineSource);
   if (source == "simulated") {
     pipeline = &g_sim_pipeline;
     std::printf("pipeline: simulated pose source (%d fixed objects)\n", int(sizeof(sim::kSimObjects) / sizeof(sim::kSimObjects[0])));
@@ -235,11 +253,6 @@ int main(int argc, char** argv) {
     fc.voxel_m = float(g_params.get_number(runtime::kTsdfVoxelM));
     fc.trunc_m = float(g_params.get_number(runtime::kTsdfTruncM));
     fc.bilateral = g_params.get_bool(runtime::kFiltersBilateral);
-    const std::string poses = g_params.get_text(runtime::kTrackingPoses);
-    if (poses != "known" && poses != "tracked" && poses != "auto") {
-      std::fprintf(stderr, "edgefused: tracking.poses = '%s' is not one of auto|known|tracked\n", poses.c_str());
-      return 1;
-    }
     fc.tracked = poses == "tracked";
     fc.auto_poses = poses == "auto";
     fc.push_every_frame = g_params.get_bool(runtime::kTrackingPushEveryFrame);
@@ -249,9 +262,6 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "edgefused: %s\n", err.c_str());
       return 1;
     }
-  } else {
-    std::fprintf(stderr, "edgefused: pipeline.source = '%s' is not one of fusion|simulated\n", source.c_str());
-    return 1;
   }
 
   // Calibration: the newest valid slot, a corrupt one reported.
