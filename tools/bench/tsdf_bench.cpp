@@ -136,7 +136,8 @@ int main(int argc, char** argv) {
   std::vector<uint16_t> depth;
   std::vector<Rgb8> colour;
   if (n == 0 || !core.init(board, seq.intr, err) || !io::load_depth(seq.frames[0], seq.intr, depth, err) ||
-      !centre_on_view(seq.intr, depth, seq.frames[0].T_world_cam, s, err) || !core.make_volume(s, err)) {
+      !centre_on_view(seq.intr, depth, seq.frames[0].T_world_cam, s, seq.frames[0].depth_path, err) ||
+      !core.make_volume(s, err)) {
     std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", n == 0 ? "no frames" : err.c_str());
     return 1;
   }

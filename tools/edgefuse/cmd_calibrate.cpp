@@ -107,7 +107,8 @@ int calibrate_maps(const Args& args, const BoardCapacities& board, FuseSettings 
     if (!c.seq.frames[0].has_pose) return fail(c.seq.root + ": frames need poses (groundtruth.txt)");
     const Pose T0_inv = c.seq.frames[0].T_world_cam.inverse();
     if (!io::load_depth(c.seq.frames[0], c.seq.intr, c.load_depth, err)) return fail(err);
-    if (!centre_on_view(c.seq.intr, c.load_depth, Pose::identity(), settings, err)) return fail(err);
+    if (!centre_on_view(c.seq.intr, c.load_depth, Pose::identity(), settings, c.seq.frames[0].depth_path, err))
+      return fail(err);
     TsdfParams p = TsdfParams::defaults_for(settings.voxel_m, settings.trunc_m);
     if (space[k].init(k == 0 ? sa : sb, dim, settings.origin_m, p) != Status::kOk) return fail("space init failed");
     const std::size_t n = std::min<std::size_t>(std::size_t(frames), c.seq.frames.size());
@@ -215,7 +216,8 @@ int cmd_calibrate(int argc, char** argv) {
   const IcpWorkspace<real_t> ws = core.buffers.icp_workspace<real_t>(1);
   if (!io::load_depth(a.seq.frames[0], a.seq.intr, a.load_depth, err)) return fail(err);
   if (!a.seq.frames[0].has_pose) return fail(a.seq.root + ": A's frames need poses (groundtruth.txt)");
-  if (!centre_on_view(a.seq.intr, a.load_depth, a.seq.frames[0].T_world_cam, settings, err)) return fail(err);
+  if (!centre_on_view(a.seq.intr, a.load_depth, a.seq.frames[0].T_world_cam, settings, a.seq.frames[0].depth_path, err))
+    return fail(err);
   if (!core.make_volume(settings, err)) return fail(err);
 
   std::printf("edgefuse calibrate: %s, A = %s (%dx%d), B = %s (%dx%d), %d frames, voxel %.4f m, guess %s\n",

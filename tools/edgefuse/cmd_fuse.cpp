@@ -101,8 +101,8 @@ int cmd_fuse(int argc, char** argv) {
     std::fprintf(stderr, "edgefuse fuse: %s\n", err.c_str());
     return 1;
   }
-  if (!settings.origin_given && !centre_on_view(seq.intr, depth, first_pose, settings, err)) {
-    std::fprintf(stderr, "edgefuse fuse: %s: %s\n", seq.frames[0].depth_path.c_str(), err.c_str());
+  if (!settings.origin_given && !centre_on_view(seq.intr, depth, first_pose, settings, seq.frames[0].depth_path, err)) {
+    std::fprintf(stderr, "edgefuse fuse: %s\n", err.c_str());
     return 1;
   }
   if (!core.make_volume(settings, err)) {

@@ -326,7 +326,7 @@ int cmd_localize(int argc, char** argv) {
       return 1;
     }
     const Pose first = single ? Pose::identity() : seq.frames[0].T_world_cam;
-    if (!centre_on_view(seq.intr, depth, first, fs, err) || !core.make_volume(fs, err)) {
+    if (!centre_on_view(seq.intr, depth, first, fs, seq.frames[0].depth_path, err) || !core.make_volume(fs, err)) {
       std::fprintf(stderr, "edgefuse localize: %s: %s\n", input.c_str(), err.c_str());
       return 1;
     }

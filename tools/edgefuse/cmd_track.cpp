@@ -114,8 +114,7 @@ int cmd_track(int argc, char** argv) {
   std::vector<uint16_t> depth, amplitude;
   std::vector<Rgb8> colour;
   if (!io::load_depth(seq.frames[0], intr, depth, err)) return fail(err);
-  if (!centre_on_view(intr, depth, first_pose, settings, err))
-    return fail(seq.frames[0].depth_path + ": " + err);
+  if (!centre_on_view(intr, depth, first_pose, settings, seq.frames[0].depth_path, err)) return fail(err);
   if (!core.make_volume(settings, err)) return fail(err);
 
   TrackerParams params;

@@ -88,7 +88,7 @@ Status CoreSetup::extract_cloud(io::PointCloud& cloud, uint8_t min_weight, bool 
 }
 
 bool centre_on_view(const PinholeIntrinsics& intr, const std::vector<uint16_t>& depth, const Pose& T_world_cam,
-                    FuseSettings& s, std::string& err) {
+                    FuseSettings& s, const std::string& depth_path, std::string& err) {
   std::vector<float> xs, ys, zs;
   for (int v = 0; v < intr.height; v += 2)
     for (int u = 0; u < intr.width; u += 2) {
@@ -101,7 +101,12 @@ bool centre_on_view(const PinholeIntrinsics& intr, const std::vector<uint16_t>& 
       zs.push_back(p.z());
     }
   if (xs.empty()) {
-    err = "the first frame has no valid depth to centre the volume on (give --origin)";
+    // Usually the camera's numbers, not the image: a wrong depth_scale puts every pixel out of range.
+    char what[200];
+    std::snprintf(what, sizeof(what), "no pixel's depth (raw / depth_scale %g) lies in [min_range, max_range] = "
+                  "[%g, %g] m", double(intr.depth_scale), double(intr.min_range_m), double(intr.max_range_m));
+    err = depth_path + ": " + what + ", nothing to centre the volume on (check the camera's depth_scale and "
+          "ranges, or give --origin)";
     return false;
   }
   auto median = [](std::vector<float>& v) {

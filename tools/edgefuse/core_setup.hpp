@@ -46,8 +46,9 @@ struct CoreSetup {
 };
 
 //! Places the volume so that its centre is the median of the points the frame sees.
+//! \param depth_path the frame's file, named in the error when no pixel holds a depth in range
 bool centre_on_view(const PinholeIntrinsics& intr, const std::vector<uint16_t>& depth, const Pose& T_world_cam,
-                    FuseSettings& s, std::string& err);
+                    FuseSettings& s, const std::string& depth_path, std::string& err);
 
 //! Writes a cloud as PLY (binary) or PCD (binary) by the file's extension.
 bool write_cloud(const std::string& path, const io::PointCloud& cloud, std::string& err);

@@ -345,7 +345,8 @@ bool place_rig_volume(RigSensors& rs, FuseSettings& settings, std::string& err) 
       err = r.seq.root + ": the first frame has no pose";
       return false;
     }
-    return centre_on_view(r.seq.intr, r.load_depth, r.seq.frames[0].T_world_cam, settings, err);
+    return centre_on_view(r.seq.intr, r.load_depth, r.seq.frames[0].T_world_cam, settings, r.seq.frames[0].depth_path,
+                          err);
   }
   std::vector<float> c[3];
   const io::LineScan& s = rs.scans[0];
