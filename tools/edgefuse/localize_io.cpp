@@ -85,7 +85,8 @@ bool load_model(Localizer& loc, const std::string& path, const LocalizeParams& p
                         reinterpret_cast<const uint32_t(*)[3]>(tri.data()), mesh.triangles.size(), params, index);
       if (s == Status::kInvalidArgument) {
         err = "the mesh has no usable surface (degenerate or zero-area triangles, vertices that are not finite "
-              "or lie beyond 1 km, or indices out of range; " + std::to_string(mesh.vertices.size()) + " vertices, " +
+              "or lie beyond " + std::to_string(int(kLocalizeCoordMaxM)) + " m, or indices out of range; " +
+              std::to_string(mesh.vertices.size()) + " vertices, " +
               std::to_string(mesh.triangles.size()) + " triangles)";
         return false;
       }
