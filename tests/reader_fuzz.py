@@ -256,13 +256,14 @@ def main():
                 elif rc == 0:
                     accepted += 1
                 else:
-                    last = err.strip().splitlines()[-1] if err.strip() else ""
+                    # split("\n"), not splitlines(): that also splits at \x1c-\x1e, which a message may quote.
+                    last = err.strip().split("\n")[-1] if err.strip() else ""
                     if case_dir not in last and os.path.basename(path) not in last:
                         problem = "exit %d without naming the input: %r" % (rc, last)
                     else:
                         refused += 1
             if a.verbose:
-                print("  %s: %s -> %s" % (t.name, how, problem or ("accepted" if r[0] == 0 else r[1].strip().splitlines()[-1])))
+                print("  %s: %s -> %s" % (t.name, how, problem or ("accepted" if r[0] == 0 else r[1].strip().split("\n")[-1])))
             if problem:
                 failures += 1
                 keep = os.path.join(a.work, "failed", "%s_%d" % (re.sub(r"\W+", "_", t.name), k))

@@ -44,7 +44,8 @@ bool read_stamp_list(const std::string& root, const std::string& list_path, std:
     }
     const std::string file = join_path(root, std::string(tok[1]));
     if (!is_regular_file(file)) {
-      err = format("%s:%d: listed file %s does not exist", list_path.c_str(), lines.line_number(), file.c_str());
+      err = format("%s:%d: listed file %s does not exist", list_path.c_str(), lines.line_number(),
+                   printable(file).c_str());
       return false;
     }
     stamps.push_back(t);

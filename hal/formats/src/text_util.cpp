@@ -69,21 +69,24 @@ bool parse_uint64(std::string_view tok, uint64_t& v) {
   return parse_whole(tok, v);
 }
 
-std::string quote(std::string_view tok) {
-  std::string s = "'";
-  const std::size_t n = tok.size() < 40 ? tok.size() : 40;
-  for (std::size_t i = 0; i < n; ++i) {
-    const unsigned char c = static_cast<unsigned char>(tok[i]);
+std::string printable(std::string_view text) {
+  std::string s;
+  for (const char ch : text) {
+    const unsigned char c = static_cast<unsigned char>(ch);
     if (c >= 32 && c < 127) {
-      s += char(c);
+      s += ch;
     } else {
       char b[8];
       std::snprintf(b, sizeof b, "\\x%02x", c);
       s += b;
     }
   }
-  if (tok.size() > n) s += "...";
-  return s + "'";
+  return s;
+}
+
+std::string quote(std::string_view tok) {
+  const std::size_t n = tok.size() < 40 ? tok.size() : 40;
+  return "'" + printable(tok.substr(0, n)) + (tok.size() > n ? "..." : "") + "'";
 }
 
 bool read_number_matrix(const std::string& path, int rows, int cols, const char* what, double* out,

@@ -42,6 +42,9 @@ bool parse_uint64(std::string_view tok, uint64_t& v);
 
 //! Short printable quote of a token for messages (clipped, control bytes escaped).
 std::string quote(std::string_view tok);
+//! `text` with bytes outside printable ASCII written as \xNN (not quoted, not shortened): file
+//! names taken from a file, for messages.
+std::string printable(std::string_view text);
 
 //! Reads a file holding exactly rows x cols whitespace-separated finite numbers (|v| <= 1e30,
 //! comments and blank lines allowed) into `out`, row-major. `what` names the matrix in messages.
