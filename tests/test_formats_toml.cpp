@@ -123,6 +123,7 @@ TEST(FormatsToml, CameraBadValuesNameFileKeyAndValue) {
       // Finite but no camera's (a corrupt digit: the reader fuzz's 573.1e9): far beyond 1000 image sizes.
       {"fy", "fy = 573.1e9", "fx, fy, cx, cy must lie within 640000 pixels (1000 x the larger image size)"},
       {"cx", "cx = -1e7", "must lie within 640000 pixels"},
+      {"depth_scale", "depth_scale = 5000.1e9", "depth_scale must be at most 1e+06 raw units per metre"},
       {"fx", "fx = \"517\"", "key 'fx' (line 4) must be a number, got a string"},
       {"fx", "", "missing key 'fx'"},
       {"width", "width = 0", "key 'width' (line 2) must be in 1..65535, got 0"},

@@ -30,7 +30,7 @@ bool PinholeSlot::bind(CoreBuffers& b, const BoardCapacities& board, int slot_in
   const int w = intr.width, h = intr.height;
   ray_norms = ImageView<real_t>(reinterpret_cast<real_t*>(b.ray_norms) + off, w, h);
   if (build_ray_norms<real_t>(intr, ray_norms) != Status::kOk) {
-    err = "sensor " + seq.sensor_name + ": bad intrinsics";
+    err = seq.root + ": sensor " + seq.sensor_name + ": bad intrinsics";
     return false;
   }
   scratch = b.scratch(slot);
@@ -41,7 +41,7 @@ bool PinholeSlot::bind(CoreBuffers& b, const BoardCapacities& board, int slot_in
   filters = DepthFilterChain<real_t>::defaults_for(intr, tof ? DepthSensorKind::kTimeOfFlight
                                                              : DepthSensorKind::kStructuredLight);
   if (filters.prepare(intr) != Status::kOk) {
-    err = "sensor " + seq.sensor_name + ": depth filters: bad parameters";
+    err = seq.root + ": sensor " + seq.sensor_name + ": the depth filters refuse its intrinsics";
     return false;
   }
   noise = tof ? NoiseModel::time_of_flight() : NoiseModel::structured_light();

@@ -148,6 +148,9 @@ bool read_pinhole_fields(TomlFields& f, PinholeIntrinsics& intr, bool ranges_req
     return f.fail(format("min_range (%g) must be < max_range (%g)", mn, mx));
   out.min_range_m = float(mn);
   out.max_range_m = float(mx);
+  if (!(scale <= PinholeIntrinsics::kMaxDepthScale))
+    return f.fail(format("depth_scale must be at most %g raw units per metre (a 1 um unit), got %g",
+                         double(PinholeIntrinsics::kMaxDepthScale), scale));
   if (out.validate() != Status::kOk)  // float overflow of huge values, or numbers no camera has
     return f.fail(format("fx, fy, cx, cy must lie within %g pixels (%g x the larger image size): got %g, %g, %g, %g",
                          double(PinholeIntrinsics::kMaxPixelsPerSize * float(w > h ? w : h)),

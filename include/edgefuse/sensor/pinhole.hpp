@@ -27,11 +27,15 @@ struct PinholeIntrinsics {
   //! a field of view of 0.06 degrees, far narrower than any depth camera. Beyond it the numbers are
   //! garbage (a corrupt camera.toml's 5.7e11), not optics.
   static constexpr float kMaxPixelsPerSize = 1000.0f;
+  //! Largest depth_scale (raw units per metre): a raw unit of 1 micrometre, finer than any depth
+  //! sensor resolves (its 16-bit range would end at 6.5 cm). Beyond it the number is garbage.
+  static constexpr float kMaxDepthScale = 1e6f;
 
   //! Checks that the numbers describe a camera (positive sizes, focal lengths in (0, 1000 sizes],
-  //! principal point within 1000 sizes of the origin, ordered ranges).
+  //! principal point within 1000 sizes of the origin, depth_scale in (0, kMaxDepthScale], ordered
+  //! ranges).
   Status validate() const {
-    if (width <= 0 || height <= 0 || !(fx > 0) || !(fy > 0) || !(depth_scale > 0) ||
+    if (width <= 0 || height <= 0 || !(fx > 0) || !(fy > 0) || !(depth_scale > 0) || !(depth_scale <= kMaxDepthScale) ||
         !(min_range_m >= 0) || !(max_range_m > min_range_m))
       return Status::kInvalidArgument;
     const float limit = kMaxPixelsPerSize * float(width > height ? width : height);
