@@ -165,9 +165,9 @@ def main():
     seeds_dir = os.path.join(a.work, "seeds")
     os.makedirs(seeds_dir)
 
-    def edgefuse(args):
+    def run(cmd):
+        """(exit code, stderr, stdout) of one command, or None when it hangs."""
         try:
-            cmd = args[1:] if args[0] == a.edgefused else [a.edgefuse] + args
             p = subprocess.run(cmd, capture_output=True, timeout=a.timeout)
         except subprocess.TimeoutExpired:
             return None
@@ -175,7 +175,7 @@ def main():
 
     # The derived seeds come from the program's own writer (a cloud of the LINEMOD frame).
     fused = os.path.join(seeds_dir, "lmo.pcd")
-    r = edgefuse(["fuse", os.path.join(a.data, "lmo_can_frame"), "--volume", "128", "--out", fused])
+    r = run([a.edgefuse, "fuse", os.path.join(a.data, "lmo_can_frame"), "--volume", "128", "--out", fused])
     if r is None or r[0] != 0:
         print("FAIL: could not write the derived seeds: %s" % ("timeout" if r is None else r[1].strip()))
         return 1
@@ -218,31 +218,31 @@ def main():
             if t.place in ("cloud", "model"):
                 path = os.path.join(case_dir, "input" + os.path.splitext(t.seed)[1])
                 if t.place == "cloud":
-                    args = ["localize", path, "--segments", "--max", "1", "--out", out + ".pcd"]
+                    args = [a.edgefuse, "localize", path, "--segments", "--max", "1", "--out", out + ".pcd"]
                 else:
-                    args = ["localize", scene, "--model", path, "--max", "1", "--out", out + ".txt"]
+                    args = [a.edgefuse, "localize", scene, "--model", path, "--max", "1", "--out", out + ".txt"]
             elif t.place == "frame":
                 for f in ("depth.png", "camera.toml"):
                     shutil.copyfile(os.path.join(D, "lmo_can_frame", f), os.path.join(case_dir, f))
                 path = os.path.join(case_dir, os.path.basename(t.seed))
-                args = ["fuse", case_dir, "--volume", "64", "--out", out + ".ply"]
+                args = [a.edgefuse, "fuse", case_dir, "--volume", "64", "--out", out + ".ply"]
             elif t.place == "config":
                 path = os.path.join(case_dir, "edgefused.toml")
-                args = [a.edgefused, a.edgefused, "--board", "host-sim", "--check", "--config", path]
+                args = [a.edgefused, "--board", "host-sim", "--check", "--config", path]
             elif t.place == "tum":  # a TUM folder: its lists point at the shared data's images
                 link_tree(os.path.join(D, "tum_fr1_xyz_37"), case_dir)
                 path = os.path.join(case_dir, os.path.basename(t.seed))
-                args = ["fuse", case_dir, "--frames", "2", "--volume", "64", "--out", out + ".ply"]
+                args = [a.edgefuse, "fuse", case_dir, "--frames", "2", "--volume", "64", "--out", out + ".ply"]
             else:  # the rig set, fused with its line scanner (rig.toml, extrinsics, laser profiles)
                 link_tree(os.path.join(D, "bin_rig_a"), case_dir)
                 path = os.path.join(case_dir, os.path.relpath(t.seed, os.path.join(D, "bin_rig_a")))
-                args = ["fuse", case_dir, "--sensors", "xtion,laser", "--frames", "2", "--volume", "64",
+                args = [a.edgefuse, "fuse", case_dir, "--sensors", "xtion,laser", "--frames", "2", "--volume", "64",
                         "--out", out + ".ply"]
             if os.path.islink(path):
                 os.unlink(path)
             with open(path, "wb") as f:
                 f.write(mdata)
-            r = edgefuse(args)
+            r = run(args)
             problem = None
             if r is None:
                 problem = "no answer within %.0f s" % a.timeout
@@ -269,8 +269,8 @@ def main():
                 keep = os.path.join(a.work, "failed", "%s_%d" % (re.sub(r"\W+", "_", t.name), k))
                 os.makedirs(os.path.dirname(keep), exist_ok=True)
                 shutil.copytree(case_dir, keep, symlinks=True)
-                print("FAIL: %s, copy %d (%s): %s\n      input kept in %s\n      command: %s %s" %
-                      (t.name, k, how, problem, keep, "" if args[0] == a.edgefused else a.edgefuse, " ".join(args)))
+                print("FAIL: %s, copy %d (%s): %s\n      input kept in %s\n      command: %s" %
+                      (t.name, k, how, problem, keep, " ".join(args)))
         print("%-22s %6d %8d %8d" % (t.name, a.count, accepted, refused))
     if failures:
         print("FAIL: %d corrupted inputs were not handled (seed %d)" % (failures, a.seed))

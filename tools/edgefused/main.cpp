@@ -245,7 +245,7 @@ int main(int argc, char** argv) {
   if (source == "simulated") {
     pipeline = &g_sim_pipeline;
     std::printf("pipeline: simulated pose source (%d fixed objects)\n", int(sizeof(sim::kSimObjects) / sizeof(sim::kSimObjects[0])));
-  } else if (source == "fusion") {
+  } else {  // "fusion" (the source was checked above)
     wire::FusionPipelineConfig fc;
     fc.board = board;
     fc.replay = g_params.get_text(runtime::kSensorsReplay);

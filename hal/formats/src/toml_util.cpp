@@ -153,7 +153,7 @@ bool read_pinhole_fields(TomlFields& f, PinholeIntrinsics& intr, bool ranges_req
                          double(PinholeIntrinsics::kMaxDepthScale), scale));
   if (out.validate() != Status::kOk)  // float overflow of huge values, or numbers no camera has
     return f.fail(format("fx, fy, cx, cy must lie within %g pixels (%g x the larger image size): got %g, %g, %g, %g",
-                         double(PinholeIntrinsics::kMaxPixelsPerSize * float(w > h ? w : h)),
+                         double(out.max_pixel_coordinate()),
                          double(PinholeIntrinsics::kMaxPixelsPerSize), fx, fy, cx, cy));
   intr = out;
   return true;

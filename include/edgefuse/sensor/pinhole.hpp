@@ -31,6 +31,9 @@ struct PinholeIntrinsics {
   //! sensor resolves (its 16-bit range would end at 6.5 cm). Beyond it the number is garbage.
   static constexpr float kMaxDepthScale = 1e6f;
 
+  //! Largest |fx|, |fy|, |cx|, |cy| validate() accepts for this image size (kMaxPixelsPerSize sizes).
+  float max_pixel_coordinate() const { return kMaxPixelsPerSize * float(width > height ? width : height); }
+
   //! Checks that the numbers describe a camera (positive sizes, focal lengths in (0, 1000 sizes],
   //! principal point within 1000 sizes of the origin, depth_scale in (0, kMaxDepthScale], ordered
   //! ranges).
@@ -38,7 +41,7 @@ struct PinholeIntrinsics {
     if (width <= 0 || height <= 0 || !(fx > 0) || !(fy > 0) || !(depth_scale > 0) || !(depth_scale <= kMaxDepthScale) ||
         !(min_range_m >= 0) || !(max_range_m > min_range_m))
       return Status::kInvalidArgument;
-    const float limit = kMaxPixelsPerSize * float(width > height ? width : height);
+    const float limit = max_pixel_coordinate();
     if (!(fx <= limit) || !(fy <= limit) || !(cx >= -limit && cx <= limit) || !(cy >= -limit && cy <= limit))
       return Status::kInvalidArgument;
     return Status::kOk;
