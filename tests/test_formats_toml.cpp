@@ -5,6 +5,7 @@
 
 #include "edgefuse/io/camera_toml.hpp"
 #include "edgefuse/io/rig.hpp"
+#include "edgefuse/io/toml_guard.hpp"
 #include "formats_test_util.hpp"
 
 using namespace edgefuse;
@@ -155,6 +156,29 @@ TEST(FormatsToml, CameraMissingEmptyGarbageTruncated) {
     std::string err;
     CHECK_FAILS_NAMING(read_camera(path, err), err, path);
   }
+}
+
+// toml++ 3.3.0 reaches undefined behaviour on some non-ASCII characters (toml_guard.hpp; found by
+// tests/fuzz): the readers accept them in comments only, and name the line otherwise.
+TEST(FormatsToml, NonAsciiOnlyInComments) {
+  CHECK_EQUAL(0u, io::toml_non_ascii_line("a = 1\n# K\xc3\xa4mera f\xc3\xbcr den Greifer\nb = 2 # \xc2\xa7\n"));
+  CHECK_EQUAL(0u, io::toml_non_ascii_line("\xef\xbb\xbf" "a = 1\n"));          // a byte order mark
+  CHECK_EQUAL(1u, io::toml_non_ascii_line("\xef\xbb\xbb" "a = 1\n"));          // not one
+  CHECK_EQUAL(2u, io::toml_non_ascii_line("a = 1\nname = \"\xc3\xa4\"\n"));   // in a string
+  CHECK_EQUAL(1u, io::toml_non_ascii_line("\xc3\xa4 = 1\n"));                  // in a key
+  CHECK_EQUAL(1u, io::toml_non_ascii_line("s = \"#\xc2\xa7\"\n"));             // '#' in a string is no comment
+  CHECK_EQUAL(0u, io::toml_non_ascii_line("s = \"\\\"#\" # \xc2\xa7\n"));      // an escaped quote, then a comment
+  CHECK_EQUAL(2u, io::toml_non_ascii_line("s = \"\"\"\\\n\xc2\xa7\"\"\"\n"));  // toml++ issue 190's document
+  CHECK_EQUAL(3u, io::toml_non_ascii_line("s = '''#\n#\n\xc2\xa7'''\n"));      // a literal over lines
+  CHECK_EQUAL(1u, io::toml_non_ascii_line("\xcc\xaa"));                        // toml++ issue 295's input
+
+  check_bad_text(dir, "camera.toml", camera_with("fx", "fx = 517.3\xc2\xa0"), read_camera,
+                 "camera.toml:4: a non-ASCII character outside a comment");
+  const std::string path = dir.file("commented.toml");
+  write_bytes(path, std::string("\xef\xbb\xbf# Kamera f\xc3\xbcr den Greifer\n") + kCamera);
+  io::CameraToml c;
+  std::string err;
+  CHECK_TEXT(io::read_camera_toml(path, c, err), err.c_str());
 }
 
 TEST(FormatsToml, CameraIntrinsicsMatrixTxt) {

@@ -113,6 +113,24 @@ TEST(RuntimeConfig, BadTomlStopsWithAClearMessage) {
   CHECK(contains(err, "/nonexistent/edgefused.toml"));
 }
 
+// All or nothing (found by tests/fuzz): a file refused at its second value must not leave its
+// first value behind, and a non-ASCII character outside a comment is refused (toml_guard.hpp).
+TEST(RuntimeConfig, ARefusedFileChangesNoValue) {
+  ParamStore p;
+  std::string err;
+  const std::string path = write_temp("[link]\nbaud = 9600\ntcp_port = 99999999\n");
+  CHECK_FALSE(hal::load_config_toml(path, p, err));
+  CHECK_TEXT(contains(err, "tcp_port"), err.c_str());
+  CHECK_EQUAL(115200, p.get_int(kLinkBaud));
+  CHECK_EQUAL(5555, p.get_int(kLinkTcpPort));
+  const std::string utf8 = write_temp("# Greifer f\xc3\xbcr Kiste 3\n[link]\nbaud = 9600\nserial = \"/dev/tty\xc3\xa4\"\n");
+  CHECK_FALSE(hal::load_config_toml(utf8, p, err));
+  CHECK_TEXT(contains(err, ":4: a non-ASCII character outside a comment"), err.c_str());
+  CHECK_EQUAL(115200, p.get_int(kLinkBaud));
+  std::remove(path.c_str());
+  std::remove(utf8.c_str());
+}
+
 TEST(RuntimeConfig, TheShippedHostSimConfigLoadsAndEqualsTheDefaults) {
   ParamStore p;
   std::string err;

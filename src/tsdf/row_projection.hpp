@@ -68,8 +68,8 @@ using namespace lane_types;  // lanes.hpp
 // the vector by two shuffles, fewer instructions than extracting each lane.
 inline unsigned mask_of(I4 m) {
   const I4 bits = m & I4{1, 2, 4, 8};
-  const I4 pairs = bits | __builtin_shuffle(bits, I4{2, 3, 0, 1});
-  const I4 all = pairs | __builtin_shuffle(pairs, I4{1, 0, 3, 2});
+  const I4 pairs = bits | __builtin_shufflevector(bits, bits, 2, 3, 0, 1);
+  const I4 all = pairs | __builtin_shufflevector(pairs, pairs, 1, 0, 3, 2);
   return unsigned(all[0]);
 }
 }  // namespace lanes_detail
@@ -227,15 +227,14 @@ inline bool project_box(const LaneCamera<float>& cam, const float c0[3], const f
   const F4 z_min = lo[2] < hi[2] ? lo[2] : hi[2], z_max = lo[2] > hi[2] ? lo[2] : hi[2];
   const F4 u_min = u_a < u_b ? u_a : u_b, u_max = u_a > u_b ? u_a : u_b;
   const F4 v_min = v_a < v_b ? v_a : v_b, v_max = v_a > v_b ? v_a : v_b;
-  const I4 swap_pairs = {2, 3, 0, 1}, swap_lanes = {1, 0, 3, 2};
-  auto lane_min = [&](F4 a) {
-    a = a < __builtin_shuffle(a, swap_pairs) ? a : __builtin_shuffle(a, swap_pairs);
-    a = a < __builtin_shuffle(a, swap_lanes) ? a : __builtin_shuffle(a, swap_lanes);
+  auto lane_min = [](F4 a) {  // across the lanes: swap pairs, then neighbours
+    a = min_f(a, __builtin_shufflevector(a, a, 2, 3, 0, 1));
+    a = min_f(a, __builtin_shufflevector(a, a, 1, 0, 3, 2));
     return a[0];
   };
-  auto lane_max = [&](F4 a) {
-    a = a > __builtin_shuffle(a, swap_pairs) ? a : __builtin_shuffle(a, swap_pairs);
-    a = a > __builtin_shuffle(a, swap_lanes) ? a : __builtin_shuffle(a, swap_lanes);
+  auto lane_max = [](F4 a) {
+    a = max_f(a, __builtin_shufflevector(a, a, 2, 3, 0, 1));
+    a = max_f(a, __builtin_shufflevector(a, a, 1, 0, 3, 2));
     return a[0];
   };
   out.z_lo = lane_min(z_min);
@@ -246,10 +245,10 @@ inline bool project_box(const LaneCamera<float>& cam, const float c0[3], const f
   // must not overflow the int32 conversion), signs restored, floored (trunc, one less
   // where that is above: the same integers as floor_int) and widened by the bilinear margin.
   const F4 n_u = -u_max, n_v = -v_max;
-  const F4 t0 = __builtin_shuffle(u_min, v_min, I4{0, 4, 1, 5}), t1 = __builtin_shuffle(u_min, v_min, I4{2, 6, 3, 7});
-  const F4 t2 = __builtin_shuffle(n_u, n_v, I4{0, 4, 1, 5}), t3 = __builtin_shuffle(n_u, n_v, I4{2, 6, 3, 7});
-  const F4 k0 = __builtin_shuffle(t0, t2, I4{0, 1, 4, 5}), k1 = __builtin_shuffle(t0, t2, I4{2, 3, 6, 7});
-  const F4 k2 = __builtin_shuffle(t1, t3, I4{0, 1, 4, 5}), k3 = __builtin_shuffle(t1, t3, I4{2, 3, 6, 7});
+  const F4 t0 = __builtin_shufflevector(u_min, v_min, 0, 4, 1, 5), t1 = __builtin_shufflevector(u_min, v_min, 2, 6, 3, 7);
+  const F4 t2 = __builtin_shufflevector(n_u, n_v, 0, 4, 1, 5), t3 = __builtin_shufflevector(n_u, n_v, 2, 6, 3, 7);
+  const F4 k0 = __builtin_shufflevector(t0, t2, 0, 1, 4, 5), k1 = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+  const F4 k2 = __builtin_shufflevector(t1, t3, 0, 1, 4, 5), k3 = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
   auto vmin = [](F4 a, F4 b) { return a < b ? a : b; };
   auto vmax = [](F4 a, F4 b) { return a > b ? a : b; };
   const F4 kBound = {float(1 << 20), float(1 << 20), float(1 << 20), float(1 << 20)};

@@ -2,6 +2,11 @@
 
 #include <toml++/toml.h>
 
+#include <fstream>
+#include <sstream>
+
+#include "edgefuse/io/toml_guard.hpp"
+
 #include "edgefuse/board_config.hpp"
 
 namespace edgefuse::cli {
@@ -25,9 +30,20 @@ bool read_number(const toml::table& t, const std::string& file, const char* key,
 
 bool read_board_defaults(const std::string& board, BoardDefaults& out, std::string& err) {
   const std::string file = std::string(kBoardSourceDir) + "/" + board + "/board.toml";
+  std::ifstream in(file, std::ios::binary);
+  if (!in) {
+    err = file + ": cannot open the board file";
+    return false;
+  }
+  std::stringstream text;
+  text << in.rdbuf();
+  if (const unsigned line = io::toml_non_ascii_line(text.str())) {  // toml++ 3.3.0's undefined behaviour
+    err = file + ":" + std::to_string(line) + ": " + io::toml_non_ascii_reason();
+    return false;
+  }
   toml::table t;
   try {
-    t = toml::parse_file(file);
+    t = toml::parse(text.str(), file);
   } catch (const toml::parse_error& e) {
     err = file + ": " + std::string(e.description());
     return false;

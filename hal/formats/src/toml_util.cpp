@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "edgefuse/io/toml_guard.hpp"
 #include "file_util.hpp"
 
 namespace edgefuse::io::detail {
@@ -11,6 +12,10 @@ bool parse_toml_file(const std::string& path, toml::table& out, std::string& err
   if (!read_file(path, text, err)) return false;
   if (text.empty()) {
     err = path + ": empty file, expected TOML";
+    return false;
+  }
+  if (const unsigned line = toml_non_ascii_line(text)) {  // toml++ 3.3.0's undefined behaviour (toml_guard.hpp)
+    err = format("%s:%u: %s", path.c_str(), line, toml_non_ascii_reason());
     return false;
   }
   try {

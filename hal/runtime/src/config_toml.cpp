@@ -1,4 +1,5 @@
 #include "edgefuse/hal/runtime/config_toml.hpp"
+#include "edgefuse/io/toml_guard.hpp"
 
 // toml++ 3.3 assert()s on some malformed input; as in hal/formats, every build type gets the
 // NDEBUG behaviour (a parse error) so a corrupt config never aborts.
@@ -74,6 +75,10 @@ bool load_config_toml(const std::string& path, ParamStore& params, std::string& 
   }
   std::stringstream text;
   text << in.rdbuf();
+  if (const unsigned line = io::toml_non_ascii_line(text.str())) {  // toml++ 3.3.0's undefined behaviour
+    err = path + ":" + std::to_string(line) + ": " + io::toml_non_ascii_reason();
+    return false;
+  }
   toml::table t;
   try {
     t = toml::parse(text.str(), path);
@@ -83,7 +88,12 @@ bool load_config_toml(const std::string& path, ParamStore& params, std::string& 
           ": TOML syntax error: " + std::string(e.description());
     return false;
   }
-  return load_table(t, "", path, params, err);
+  // All or nothing: a file refused half-way must not leave its first values behind (found by
+  // tests/fuzz: a wrong value after link.baud left the new baud rate set).
+  ParamStore loaded = params;
+  if (!load_table(t, "", path, loaded, err)) return false;
+  params = loaded;
+  return true;
 }
 
 bool apply_override(const std::string& kv, ParamStore& params, std::string& err) {
