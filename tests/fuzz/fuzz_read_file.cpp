@@ -70,21 +70,15 @@ bool is_sentinel(const PointCloud& c) {
   return c.points.size() == 1 && c.points[0] == Vec3f(1, 2, 3) && c.width == 1 && c.height == 1 && c.normals.empty();
 }
 
-void read_pcd_file(const std::string& path) {
+void read_cloud(const std::string& path, bool (*read)(const std::string&, PointCloud&, std::string&)) {
   PointCloud c = sentinel_cloud();
   std::string err;
-  if (read_pcd(path, c, err)) return check_cloud(c);
+  if (read(path, c, err)) return check_cloud(c);
   check_refusal(path, err);
-  FUZZ_CHECK(is_sentinel(c), "a refused PCD changed the caller's cloud (%zu points)", c.size());
+  FUZZ_CHECK(is_sentinel(c), "a refused cloud file changed the caller's cloud (%zu points)", c.size());
 }
-
-void read_ply_cloud(const std::string& path) {
-  PointCloud c = sentinel_cloud();
-  std::string err;
-  if (read_ply(path, c, err)) return check_cloud(c);
-  check_refusal(path, err);
-  FUZZ_CHECK(is_sentinel(c), "a refused PLY changed the caller's cloud (%zu points)", c.size());
-}
+void read_pcd_file(const std::string& path) { read_cloud(path, read_pcd); }
+void read_ply_cloud(const std::string& path) { read_cloud(path, read_ply); }
 
 void read_ply_mesh(const std::string& path) {
   TriangleMesh m;
