@@ -3,6 +3,8 @@
 // no heap allocation once started (mapping, tracking and the localisation thread), and the states
 // the runtime sees (empty map refused, tracking state, still detection off while the rig moves).
 #include <time.h>
+#include <algorithm>
+#include <cmath>
 
 #include <memory>
 #include <string>
@@ -212,10 +214,16 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   }
   CHECK_TRUE_TEXT(ok, why);
   // Started at the true mounting: the mean of the frames' fits stays within a few mm / tenths of a
-  // degree of it. One ToF frame scatters by ~2 mm per axis (up to 5.7 mm seen), so calib fuse
-  // averages kCalibFrames = 5 of them (0.5-2.7 mm seen over repeated runs).
+  // degree of it. One ToF frame scatters by ~3 mm per axis in x and y (up to 7 mm seen; z 0.5 mm),
+  // so calib fuse averages kCalibFrames = 10 of them: 0.25-1.42 mm off in 30 runs, two at a time
+  // (with 5 frames 0.2-6.0 mm; a CI run failed the former 5 mm bound at 6.01 mm). The bound is
+  // 4.5 sigma of the mean's distance (Rayleigh in x, y: exceeded once in ~20,000 commands) for
+  // the frames a starved machine actually averaged, and 5 mm at 10 frames or more.
   CHECK_TRUE(r.frames >= 2);
-  CHECK_TRUE(r.moved_mm < 5.0f);
+  const float one_frame_sigma_mm = 3.0f;
+  const float bound_mm = std::max(5.0f, 4.5f * one_frame_sigma_mm / std::sqrt(float(r.frames)));
+  CHECK_TRUE_TEXT(r.moved_mm < bound_mm, (std::to_string(r.moved_mm) + " mm from the mounting after " +
+                                          std::to_string(r.frames) + " frames").c_str());
   CHECK_TRUE(r.moved_deg < 1.0f);
   CHECK_FALSE(p->calibrate_pair("tof", "xtion", r, &why));
   CHECK_FALSE(p->calibrate_pair("xtion", "laser", r, &why));  // streams, but is no camera

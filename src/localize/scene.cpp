@@ -10,19 +10,21 @@
 
 namespace edgefuse {
 
-Status Localizer::set_scene(const SurfacePoint* points, std::size_t count, const SceneContext& context,
-                            const TsdfVolume* volume, float grid_cell_m) {
+template <class PointAt>
+Status Localizer::load_scene(std::size_t count, PointAt point_at, const SceneContext& context,
+                             const TsdfVolume* volume, float grid_cell_m) {
   if (!b_.scene) return Status::kNotInitialised;
   if (!(grid_cell_m >= kLocalizeGridCellMinM)) return Status::kInvalidArgument;
   std::size_t n = 0;
   Status s = Status::kOk;
   for (std::size_t i = 0; i < count; ++i) {
-    if (!localizable(points[i].position) || !points[i].normal.allFinite()) continue;
+    const ScenePoint p = point_at(i);
+    if (!localizable(p.p) || !p.n.allFinite()) continue;
     if (n >= b_.scene_points_max) {
       s = Status::kOutputTruncated;
       break;
     }
-    b_.scene[n++] = ScenePoint{points[i].position, points[i].normal, uint32_t(i), points[i].colour};
+    b_.scene[n++] = p;
   }
   scene_count_ = n;
   ctx_ = context;
@@ -31,25 +33,17 @@ Status Localizer::set_scene(const SurfacePoint* points, std::size_t count, const
   return s;
 }
 
+Status Localizer::set_scene(const SurfacePoint* points, std::size_t count, const SceneContext& context,
+                            const TsdfVolume* volume, float grid_cell_m) {
+  const auto point_at = [points](std::size_t i) {
+    return ScenePoint{points[i].position, points[i].normal, uint32_t(i), points[i].colour};
+  };
+  return load_scene(count, point_at, context, volume, grid_cell_m);
+}
+
 Status Localizer::set_scene_points(const ScenePoint* points, std::size_t count, const SceneContext& context,
                                    const TsdfVolume* volume, float grid_cell_m) {
-  if (!b_.scene) return Status::kNotInitialised;
-  if (!(grid_cell_m >= kLocalizeGridCellMinM)) return Status::kInvalidArgument;
-  std::size_t n = 0;
-  Status s = Status::kOk;
-  for (std::size_t i = 0; i < count; ++i) {
-    if (!localizable(points[i].p) || !points[i].n.allFinite()) continue;
-    if (n >= b_.scene_points_max) {
-      s = Status::kOutputTruncated;
-      break;
-    }
-    b_.scene[n++] = points[i];
-  }
-  scene_count_ = n;
-  ctx_ = context;
-  volume_ = volume;
-  build_grid(grid_cell_m);
-  return s;
+  return load_scene(count, [points](std::size_t i) { return points[i]; }, context, volume, grid_cell_m);
 }
 
 void Localizer::build_grid(float cell_m) {

@@ -55,15 +55,6 @@ int cmd_fuse(int argc, char** argv) {
     std::fprintf(stderr, "edgefuse fuse: %s\n", err.c_str());
     return 2;
   }
-  if (settings.dim % kBrickSide != 0) {
-    std::fprintf(stderr, "edgefuse fuse: --volume must be a multiple of %d, got %d\n", kBrickSide, settings.dim);
-    return 2;
-  }
-  if (settings.trunc_m < settings.voxel_m) {
-    std::fprintf(stderr, "edgefuse fuse: --trunc (%g m) must be at least one voxel (%g m)\n", settings.trunc_m,
-                 settings.voxel_m);
-    return 2;
-  }
 
   io::DepthSequence seq;
   if (!io::open_depth_sequence(args.positional()[0], args.get("sensor"), seq, err)) {

@@ -95,8 +95,6 @@ int cmd_fuse_rig(int argc, char** argv) {
   if (!apply_fuse_options(args, settings, frames_max, err) ||
       (args.has("guess") && !parse_guess(args.get("guess"), guess, err)))
     return fail(err, 2);
-  if (settings.dim % kBrickSide != 0) return fail("--volume must be a multiple of 8", 2);
-  if (settings.trunc_m < settings.voxel_m) return fail("--trunc must be at least one voxel", 2);
   const bool use_trust = !args.has("no-trust"), paint = !args.has("no-paint"), filter = !args.has("no-filter");
   float sigma_ref = 0.5f * settings.voxel_m;
   int min_weight = 0;

@@ -75,15 +75,6 @@ int cmd_track(int argc, char** argv) {
     std::fprintf(stderr, "edgefuse track: %s\n", err.c_str());
     return 2;
   }
-  if (settings.dim % kBrickSide != 0) {
-    std::fprintf(stderr, "edgefuse track: --volume must be a multiple of %d, got %d\n", kBrickSide, settings.dim);
-    return 2;
-  }
-  if (settings.trunc_m < settings.voxel_m) {
-    std::fprintf(stderr, "edgefuse track: --trunc (%g m) must be at least one voxel (%g m)\n", settings.trunc_m,
-                 settings.voxel_m);
-    return 2;
-  }
   if (board.sensors_max < 2) return fail("board " + std::string(board.name) + " has no spare frame buffer for filtering");
 
   io::DepthSequence seq;

@@ -1,5 +1,7 @@
 #include "fuse_options.hpp"
 
+#include <cstdio>
+
 #include "board_defaults.hpp"
 #include "edgefuse/memory/arena.hpp"
 
@@ -27,6 +29,18 @@ bool apply_fuse_options(const Args& args, FuseSettings& settings, int& frames_ma
     return false;
   if (!args.has("trunc") && args.has("voxel")) settings.trunc_m = 4.0f * settings.voxel_m;
   settings.origin_given = args.has("origin");
+  char what[128];
+  if (settings.dim % kBrickSide != 0) {
+    std::snprintf(what, sizeof what, "--volume must be a multiple of %d, got %d", kBrickSide, settings.dim);
+    err = what;
+    return false;
+  }
+  if (settings.trunc_m < settings.voxel_m) {
+    std::snprintf(what, sizeof what, "--trunc (%g m) must be at least one voxel (%g m)", double(settings.trunc_m),
+                  double(settings.voxel_m));
+    err = what;
+    return false;
+  }
   return true;
 }
 

@@ -14,7 +14,8 @@ namespace edgefuse::cli {
 bool board_fuse_settings(FuseSettings& settings, std::string& err);
 
 //! Applies the options that are present (each range-checked); the truncation becomes 4 voxels when
-//! only --voxel is given; origin_given tells whether --origin was.
+//! only --voxel is given; origin_given tells whether --origin was. Refuses a volume that is not a
+//! whole number of bricks and a truncation below one voxel.
 //! \param args parsed options  \param settings updated  \param frames_max --frames (else 2^30)
 //! \param err the option that was wrong and why
 bool apply_fuse_options(const Args& args, FuseSettings& settings, int& frames_max, std::string& err);

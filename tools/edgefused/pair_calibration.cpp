@@ -3,8 +3,9 @@
 // filled at the reference camera's poses, so `from` must be the reference; `to`'s newest frame,
 // taken within the pairing window of the reference's last frame (the rig still, or both
 // streaming), is registered to the map raycast at the guessed mounting. One frame's estimate
-// scatters by about 2 mm / 0.2 deg (the ToF's noise; `edgefuse calibrate --frames 10` on bin_rig_a:
-// spread 1.8 / 1.6 / 0.3 mm), so the command averages kCalibFrames estimates from consecutive
+// scatters by 2-3 mm per axis across the view / 0.2 deg (the ToF's noise; `edgefuse calibrate
+// --frames 10` on bin_rig_a: spread 1.8 / 1.6 / 0.3 mm; the live sim rig 1.5-4.5 mm, single
+// frames up to 7 mm off), so the command averages kCalibFrames estimates from consecutive
 // reference frames; the frames that arrive meanwhile are mapped as usual (step()). It runs on the
 // main loop without the heap and stops early when the reference camera stops delivering.
 #include <algorithm>
@@ -23,9 +24,11 @@ namespace edgefuse::wire {
 namespace {
 // Filters' intermediate image for the calibration frame (static: no heap).
 uint16_t g_calib_scratch[kBuildBoard.image_width_max * kBuildBoard.image_height_max];
-// Estimates averaged per command (the scatter of the mean falls as 1/sqrt of it), and the longest
-// wait for the reference camera's next frame before averaging what there is.
-constexpr int kCalibFrames = 5;
+// Estimates averaged per command (the scatter of the mean falls as 1/sqrt of it: 10 frames, a
+// third of a second at 30 fps, keep the mean within ~1 mm per axis; 5 left it 5-6 mm off in about
+// one command of twenty on the sim rig), and the longest wait for the reference camera's next frame
+// before averaging what there is.
+constexpr int kCalibFrames = 10;
 constexpr uint64_t kCalibFrameWaitUs = 1000000;
 }  // namespace
 

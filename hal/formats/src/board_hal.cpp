@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "file_util.hpp"
 #include "toml_util.hpp"
 
 namespace edgefuse::io {
@@ -43,7 +44,7 @@ bool read_board_hal(const std::string& path, BoardHal& hal, std::string& err) {
   static const char* const kScannerBackends[] = {"sim", "replay", "null"};
   static const char* const kDirections[] = {"input", "output"};
   static const char* const kEdges[] = {"rising", "falling", "both"};
-  try {
+  return detail::guarded(path, err, [&] {
     toml::table t;
     if (!detail::parse_toml_file(path, t, err)) return false;
     BoardHal out;
@@ -120,12 +121,7 @@ bool read_board_hal(const std::string& path, BoardHal& hal, std::string& err) {
     }
     hal = out;
     return true;
-  } catch (const std::bad_alloc&) {
-    err = path + ": out of memory";
-  } catch (const std::exception& e) {
-    err = path + ": " + e.what();
-  }
-  return false;
+  });
 }
 
 }  // namespace edgefuse::io

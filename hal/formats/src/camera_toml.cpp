@@ -13,7 +13,7 @@ namespace edgefuse::io {
 using detail::format;
 
 bool read_camera_toml(const std::string& path, CameraToml& cam, std::string& err) {
-  try {
+  return detail::guarded(path, err, [&] {
     toml::table t;
     if (!detail::parse_toml_file(path, t, err)) return false;
     detail::TomlFields f(t, path, err);
@@ -29,12 +29,7 @@ bool read_camera_toml(const std::string& path, CameraToml& cam, std::string& err
       return f.fail(format("key 'distortion' must hold 4, 5, 8, 12 or 14 numbers (k1 k2 p1 p2 k3 ...), got %zu", n));
     cam = out;
     return true;
-  } catch (const std::bad_alloc&) {
-    err = path + ": out of memory";
-  } catch (const std::exception& e) {
-    err = path + ": " + e.what();
-  }
-  return false;
+  });
 }
 
 bool read_camera_toml(const std::string& path, PinholeIntrinsics& intr, std::string& err) {

@@ -80,7 +80,7 @@ bool check_size(const std::string& path, int w, int h, const PinholeIntrinsics& 
 }  // namespace
 
 bool open_depth_sequence(const std::string& path, const std::string& sensor, DepthSequence& seq, std::string& err) {
-  try {
+  return detail::guarded(path, err, [&] {
     if (!detail::is_directory(path)) {
       err = path + (std::filesystem::exists(path) ? ": not a folder, expected a depth sequence folder"
                                                   : ": no such folder");
@@ -107,12 +107,7 @@ bool open_depth_sequence(const std::string& path, const std::string& sensor, Dep
     }
     if (ok) seq = std::move(out);
     return ok;
-  } catch (const std::bad_alloc&) {
-    err = path + ": out of memory";
-  } catch (const std::exception& e) {
-    err = path + ": " + e.what();
-  }
-  return false;
+  });
 }
 
 bool load_depth(const FrameRef& frame, const PinholeIntrinsics& intr, std::vector<uint16_t>& depth, std::string& err) {

@@ -236,7 +236,7 @@ bool extract(const std::string& path, const PcdHeader& h, const Layout& L, Point
 }  // namespace
 
 bool read_pcd(const std::string& path, PointCloud& cloud, std::string& err) {
-  try {
+  return detail::guarded(path, err, [&] {
     std::string data;
     if (!detail::read_file(path, data, err)) return false;
     PcdHeader h;
@@ -280,12 +280,7 @@ bool read_pcd(const std::string& path, PointCloud& cloud, std::string& err) {
     if (!extract(path, h, L, out, err)) return false;
     cloud = std::move(out);
     return true;
-  } catch (const std::bad_alloc&) {
-    err = path + ": out of memory";
-  } catch (const std::exception& e) {
-    err = path + ": " + e.what();
-  }
-  return false;
+  });
 }
 
 }  // namespace edgefuse::io

@@ -110,14 +110,9 @@ bool write_impl(const std::string& path, const PointCloud& cloud, PcdEncoding en
 }  // namespace
 
 bool write_pcd(const std::string& path, const PointCloud& cloud, std::string& err, PcdEncoding enc) {
-  try {
+  return detail::guarded(path, err, [&] {
     return write_impl(path, cloud, enc, err);
-  } catch (const std::bad_alloc&) {
-    err = path + ": out of memory";
-  } catch (const std::exception& e) {
-    err = path + ": " + e.what();
-  }
-  return false;
+  });
 }
 
 }  // namespace edgefuse::io

@@ -85,7 +85,7 @@ bool read_object(const std::string& root, const std::string& path, std::size_t i
 }  // namespace
 
 bool read_rig_toml(const std::string& path, RigToml& rig, std::string& err) {
-  try {
+  return detail::guarded(path, err, [&] {
     toml::table t;
     if (!detail::parse_toml_file(path, t, err)) return false;
     RigToml out;
@@ -111,12 +111,7 @@ bool read_rig_toml(const std::string& path, RigToml& rig, std::string& err) {
     }
     rig = out;
     return true;
-  } catch (const std::bad_alloc&) {
-    err = path + ": out of memory";
-  } catch (const std::exception& e) {
-    err = path + ": " + e.what();
-  }
-  return false;
+  });
 }
 
 }  // namespace edgefuse::io

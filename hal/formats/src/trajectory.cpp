@@ -16,7 +16,7 @@ namespace edgefuse::io {
 using detail::format;
 
 bool read_tum_trajectory(const std::string& path, std::vector<StampedPose>& poses, std::string& err) {
-  try {
+  return detail::guarded(path, err, [&] {
     std::string text;
     if (!detail::read_file(path, text, err)) return false;
     if (text.empty()) {
@@ -58,12 +58,7 @@ bool read_tum_trajectory(const std::string& path, std::vector<StampedPose>& pose
                        [](const StampedPose& a, const StampedPose& b) { return a.stamp_s < b.stamp_s; });
     poses.swap(out);
     return true;
-  } catch (const std::bad_alloc&) {
-    err = path + ": out of memory";
-  } catch (const std::exception& e) {
-    err = path + ": " + e.what();
-  }
-  return false;
+  });
 }
 
 bool write_tum_trajectory(const std::string& path, const std::vector<StampedPose>& poses, std::string& err,

@@ -215,6 +215,11 @@ class Localizer {
   Status build_ppf_table(int m, const LocalizeParams& params);
   Status finish_model(const char* name, std::size_t dense, const LocalizeParams& params, int& model_index);
   void build_grid(float cell_m);
+  //! set_scene and set_scene_points: keeps point_at(i) for i < count where localizable, then
+  //! builds the grid (defined in scene.cpp, the only place that instantiates it).
+  template <class PointAt>
+  Status load_scene(std::size_t count, PointAt point_at, const SceneContext& context, const TsdfVolume* volume,
+                    float grid_cell_m);
   //! Nearest scene point within radius (index or -1).
   int32_t nearest(const Vec3f& q, float radius_m, float& dist2) const;
   //! Labels every unlabelled scene point within radius of q (claims of an accepted hypothesis).
