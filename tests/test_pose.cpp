@@ -37,3 +37,29 @@ TEST(Pose, QuaternionRoundTripKeepsWNonNegative) {
   const Pose M = Pose::from_matrix(T.matrix());
   CHECK((M.R - T.R).norm() < 1e-7f);
 }
+
+TEST(Pose, InterpolateFollowsConstantVelocity) {
+  // 30 degrees about a tilted axis and 6 cm between a and b.
+  const Vec3f axis = Vec3f(1, 2, 3).normalized();
+  const float angle = float(M_PI / 6.0);
+  Pose a = Pose::from_tq(0.1f, -0.2f, 0.7f, 0.1f, 0.2f, -0.3f, 0.9f);
+  Pose step;
+  step.R = Eigen::AngleAxisf(angle, axis).toRotationMatrix();
+  step.t = Vec3f(0.02f, -0.04f, 0.04f);
+  const Pose b = a * step;
+  // The ends, and an exact midpoint: half the rotation about the same axis, halfway between.
+  CHECK((interpolate(a, b, 0.0f).R - a.R).norm() < 1e-6f);
+  CHECK((interpolate(a, b, 1.0f).R - b.R).norm() < 1e-5f);
+  CHECK((interpolate(a, b, 1.0f).t - b.t).norm() < 1e-7f);
+  const Pose mid = interpolate(a, b, 0.5f);
+  CHECK((mid.R - a.R * Eigen::AngleAxisf(0.5f * angle, axis).toRotationMatrix()).norm() < 1e-5f);
+  CHECK((mid.t - 0.5f * (a.t + b.t)).norm() < 1e-7f);
+  // Extrapolation: s = 2 is one more step of the same rotation.
+  const Pose after = interpolate(a, b, 2.0f);
+  CHECK((after.R - b.R * step.R).norm() < 1e-5f);
+  CHECK((after.t - (2.0f * b.t - a.t)).norm() < 1e-6f);
+  // Still a rotation, and no motion when a = b.
+  DOUBLES_EQUAL(1.0, mid.R.determinant(), 1e-5);
+  CHECK((mid.R * mid.R.transpose()).isIdentity(1e-5f));
+  CHECK((interpolate(a, a, 0.7f).R - a.R).norm() < 1e-6f);
+}

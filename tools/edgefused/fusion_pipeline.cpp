@@ -374,6 +374,7 @@ void FusionPipeline::reset_map() {
   map_frames_ = 0;
   clear_pending_ = true;
   have_ref_pose_ = false;
+  have_prev_ref_pose_ = false;
   view_sum_ = Vec3f::Zero();
 }
 
@@ -422,6 +423,13 @@ void FusionPipeline::step(uint64_t now_us) {
   update_drops();
 }
 
+Pose FusionPipeline::reference_pose_at(uint64_t stamp_us) const {
+  if (!have_prev_ref_pose_) return ref_pose_;
+  const double gap_us = double(ref_stamp_us_ - prev_ref_stamp_us_), window_us = double(kPairWindowUs);
+  const double since_us = std::clamp(double(stamp_us) - double(ref_stamp_us_), -gap_us - window_us, window_us);
+  return interpolate(prev_ref_pose_, ref_pose_, float(1.0 + since_us / gap_us));
+}
+
 // The line scanner: every profile, in order (each is one slice of the scan).
 void FusionPipeline::drain_profiles() {
   if (scanner_.worker) scanner_.channel.drain([this](const hal::LineProfile& p) { process_profile(p); });
@@ -464,6 +472,7 @@ void FusionPipeline::update_drops() {
 void FusionPipeline::process_reference(uint64_t now_us) {
   CameraStream& ref = cams_[order_[0]];
   const hal::DepthFrame& frame = *ref.held;
+  const bool had_ref_pose = have_ref_pose_;  // ref_pose_ is the previous frame's, valid (this frame may clear it)
   if (last_frame_us_ != 0 && now_us > last_frame_us_) {
     const float inst = 1e6f / float(now_us - last_frame_us_);
     stats_.fps = stats_.fps <= 0 ? inst : 0.9f * stats_.fps + 0.1f * inst;
@@ -538,6 +547,10 @@ void FusionPipeline::process_reference(uint64_t now_us) {
     stats_.tracking = edgefuse_link_TrackingState_TRACKING_OK;
     have_ref_pose_ = true;
   }
+  have_prev_ref_pose_ = had_ref_pose && have_ref_pose_ && frame.stamp_us >= ref_stamp_us_ + kPoseVelocityGapMinUs &&
+                        frame.stamp_us - ref_stamp_us_ <= kPoseVelocityGapMaxUs;
+  prev_ref_pose_ = ref_pose_;
+  prev_ref_stamp_us_ = ref_stamp_us_;
   ref_pose_ = T;
   ref_stamp_us_ = frame.stamp_us;
   // Still detection against an anchor pose, not the previous frame: a slow motion moves little
@@ -618,7 +631,7 @@ void FusionPipeline::process_other(CameraStream& c) {
   }
   f.trust = c.trust;
   apply_noise_rules(c, f, sigma_m);
-  const Pose T = ref_pose_ * c.T_ref_cam;
+  const Pose T = reference_pose_at(frame.stamp_us) * c.T_ref_cam;
   if (integrate_parallel<real_t>(pool_, core_.volume, c.intr, c.ray_norms, f, T, c.scratch) != Status::kOk) {
     ++pipeline_drops_;
     return;

@@ -7,8 +7,10 @@
 // model-free segments -> a LocalizationResult for the link.
 //
 // Sensors (sensors.fuse): the cameras that feed the map; the first is the reference whose poses
-// are known or tracked. Another camera is integrated at the reference pose of the frame nearest in
-// time (within kPairWindowUs) times its extrinsics T_ref_cam: the calibration store's pair (ref,
+// are known or tracked. Another camera's frame, paired with the reference frame nearest in time
+// (within kPairWindowUs), is integrated at the reference's pose at the frame's own capture stamp
+// (reference_pose_at: constant velocity through the reference's last two poses) times its
+// extrinsics T_ref_cam: the calibration store's pair (ref,
 // cam), else the store's rig mountings of both, else the replayed rig set's extrinsics.txt, else
 // the sim backend's mounting. With more than one camera in the map each pixel's weight follows its
 // sensor's noise model (trust maps, as `edgefuse fuse --sensors`). Every camera streams (and is
@@ -123,6 +125,23 @@ class FusionPipeline final : public runtime::Pipeline {
 
   //! Largest stamp difference between a camera's frame and the reference frame whose pose it takes.
   static constexpr uint64_t kPairWindowUs = 40000;
+  //! Gaps between the reference's last two processed frames that give a velocity for
+  //! reference_pose_at(): at least 10 ms (a 100 fps camera; closer stamps would magnify pose noise
+  //! into the velocity) and at most three frame periods at 30 fps (a longer gap, a lost frame or a
+  //! new map leaves only the last pose).
+  static constexpr uint64_t kPoseVelocityGapMinUs = 10000;
+  static constexpr uint64_t kPoseVelocityGapMaxUs = 100000;
+
+  //! The reference camera's pose at capture time stamp_us: on the constant-velocity path through
+  //! its last two processed frames (interpolated between them, extrapolated by at most
+  //! kPairWindowUs beyond either), or its last pose when there is no such pair. Another camera's
+  //! frame, paired within kPairWindowUs, is placed at this pose times its extrinsics (a rig moving
+  //! at 0.25 m/s moves 8 mm between two 30 fps frames: the nearest reference frame alone would
+  //! misplace it by up to 10 mm).
+  //! \param stamp_us a capture stamp (the frame clock of DepthFrame::stamp_us)
+  Pose reference_pose_at(uint64_t stamp_us) const;
+  //! Capture stamp of the reference camera's last processed frame (0 before the first).
+  uint64_t reference_stamp_us() const { return ref_stamp_us_; }
 
  private:
   static constexpr int kCamerasMax = 3;
@@ -171,6 +190,9 @@ class FusionPipeline final : public runtime::Pipeline {
   bool have_ref_pose_ = false;
   Pose ref_pose_;             // the reference camera's pose at its last processed frame
   uint64_t ref_stamp_us_ = 0;  // that frame's capture stamp
+  bool have_prev_ref_pose_ = false;  // the frame before it had a pose too, at most kPoseVelocityGapMaxUs earlier
+  Pose prev_ref_pose_;
+  uint64_t prev_ref_stamp_us_ = 0;
   bool have_still_anchor_ = false;
   Pose still_anchor_;  //!< pose where the current still period began (still detection)
   uint64_t last_frame_us_ = 0;

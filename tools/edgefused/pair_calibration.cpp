@@ -2,12 +2,13 @@
 // src/fusion calibrate_pair, as `edgefuse calibrate` runs it offline) on the live map. The map is
 // filled at the reference camera's poses, so `from` must be the reference; `to`'s newest frame,
 // taken within the pairing window of the reference's last frame (the rig still, or both
-// streaming), is registered to the map raycast at the guessed mounting. One frame's estimate
-// scatters by 2-3 mm per axis across the view / 0.2 deg (the ToF's noise; `edgefuse calibrate
-// --frames 10` on bin_rig_a: spread 1.8 / 1.6 / 0.3 mm; the live sim rig 1.5-4.5 mm, single
-// frames up to 7 mm off), so the command averages kCalibFrames estimates from consecutive
-// reference frames; the frames that arrive meanwhile are mapped as usual (step()). It runs on the
-// main loop without the heap and stops early when the reference camera stops delivering.
+// streaming), is registered to the map raycast at the guessed mounting from the reference's pose
+// at that frame's stamp (reference_pose_at). One frame's estimate scatters by 2-3 mm per axis /
+// 0.2 deg (the ToF's noise; `edgefuse calibrate --frames 10` on bin_rig_a: spread 1.8 / 1.6 /
+// 0.3 mm; on the live sim rig 1.5-4.5 mm, single frames up to 7 mm off), so the command averages
+// kCalibFrames estimates from consecutive reference frames; the frames that arrive meanwhile are
+// mapped as usual (step()). It runs on the main loop without the heap and stops early when the
+// reference camera stops delivering.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -96,7 +97,7 @@ bool FusionPipeline::calibrate_pair(const char* from, const char* to, runtime::P
             std::snprintf(reason, sizeof(reason), "%.40s's frame could not be filtered", to);
             continue;
           }
-          const Status st = ::edgefuse::calibrate_pair<real_t>(core_.volume, ref_pose_, guess, B.intr, B.pyramid,
+          const Status st = ::edgefuse::calibrate_pair<real_t>(core_.volume, reference_pose_at(s), guess, B.intr, B.pyramid,
                                                                B.maps, B.icp_ws, params, r);
           if (st != Status::kOk) {
             std::snprintf(reason, sizeof(reason), "calibration failed: %s", to_string(st));

@@ -66,4 +66,17 @@ struct Pose {
   }
 };
 
+//! The pose a fraction s of the way from a to b at constant velocity: the translation on the line
+//! through a.t and b.t, the rotation on the geodesic from a.R to b.R (in a's frame). s = 0 gives
+//! a, s = 1 gives b; s outside [0, 1] extrapolates at the same velocity (the relative rotation
+//! from a to b must be below 180 degrees, as between two frames of one sensor).
+//! \param a pose at s = 0  \param b pose at s = 1  \param s fraction (time between them, scaled)
+inline Pose interpolate(const Pose& a, const Pose& b, float s) {
+  const Eigen::AngleAxisf step(Mat3f(a.R.transpose() * b.R));
+  Pose p;
+  p.R = a.R * Eigen::AngleAxisf(s * step.angle(), step.axis()).toRotationMatrix();
+  p.t = a.t + s * (b.t - a.t);
+  return p;
+}
+
 }  // namespace edgefuse
