@@ -117,6 +117,17 @@ bool wait_state(wire::FusionPipeline& p, hal::DeviceState s) {
   while (p.camera_stream(0).counters.device_state() != s && now_us() < end) step_for(p, 5);
   return p.camera_stream(0).counters.device_state() == s;
 }
+// A pipeline of the build board with sensors.fuse = `fuse`, initialised (the checks are the
+// calling test's) and not mapping yet.
+std::unique_ptr<wire::FusionPipeline> fusing_pipeline(const char* fuse) {
+  wire::FusionPipelineConfig c;
+  c.board = kBuildBoard.name;
+  c.fuse = fuse;
+  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::string err;
+  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  return p;
+}
 }  // namespace
 
 // Faults at the camera (issue 6 item 10 in edgefused): the acquisition thread recovers a stall by
@@ -173,12 +184,7 @@ TEST(FusionPipeline, CameraFaultsKeepTheMap) {
 // instant times the sim rig's mounting, weighted by its noise model; no heap while mapping; and
 // calib fuse on the live map recovers the mounting.
 TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
-  wire::FusionPipelineConfig c;
-  c.board = kBuildBoard.name;
-  c.fuse = "xtion,tof";
-  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
-  std::string err;
-  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  std::unique_ptr<wire::FusionPipeline> p = fusing_pipeline("xtion,tof");
   STRCMP_EQUAL("sim rig mounting", p->camera_stream(1).mount_source);
   const char* why = "";
   CHECK_TRUE(p->start_mapping(&why));
@@ -197,7 +203,7 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   // with the xtion's extracts with the evidence rule (support 9). fusion5b: such a set fills sub-unit
   // samples only to 3 units, so its support rule is 4 again (fusion_rules.hpp rule 3).
   CHECK_TRUE(p->camera_stream(0).sigma.frames >= 2 && p->camera_stream(1).sigma.frames >= 2);
-  const float sigma_ref_m = 0.5f * c.voxel_m;  // the pipeline's trust reference
+  const float sigma_ref_m = 0.5f * wire::FusionPipelineConfig().voxel_m;  // the pipeline's trust reference
   CHECK_FALSE(sub_unit_sensor(p->camera_stream(0).median_sigma(), sigma_ref_m));
   CHECK_TRUE(sub_unit_sensor(p->camera_stream(1).median_sigma(), sigma_ref_m));
   LONGS_EQUAL(kSubUnitFillUnits, p->map_sub_unit_fill());
@@ -241,12 +247,7 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
 // <= 100 ms between the two poses (0.035 mm), while the nearest reference frame is off by up to
 // 0.6 mm.
 TEST(FusionPipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
-  wire::FusionPipelineConfig c;
-  c.board = kBuildBoard.name;
-  c.fuse = "xtion,tof";
-  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
-  std::string err;
-  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  std::unique_ptr<wire::FusionPipeline> p = fusing_pipeline("xtion,tof");
   const char* why = "";
   CHECK_TRUE(p->start_mapping(&why));
   CHECK_TRUE(step_frames(*p, 3));
@@ -286,12 +287,7 @@ TEST(FusionPipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
 // sensors.fuse = "xtion,laser": the sim line scanner's profiles (100 Hz, its own thread) enter the
 // map at the poses of the simulated axis, every one in order, without heap.
 TEST(FusionPipeline, LineScannerFeedsTheMap) {
-  wire::FusionPipelineConfig c;
-  c.board = kBuildBoard.name;
-  c.fuse = "xtion,laser";
-  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
-  std::string err;
-  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  std::unique_ptr<wire::FusionPipeline> p = fusing_pipeline("xtion,laser");
   CHECK_EQUAL(3, p->device_count());
   STRCMP_EQUAL("laser", p->device_name(2));
   const char* why = "";
