@@ -244,18 +244,21 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
 // sim rig (known poses, a circle of 2 cm in 8 s, 15.7 mm/s) that pose times the mounting is the
 // tof's true pose within the constant-velocity model's error on the circle: a t_e (t_e + g) / 2 for
 // the centripetal acceleration a, an extrapolation t_e <= the 40 ms pairing window and a gap g
-// <= 100 ms between the two poses (0.035 mm), while the nearest reference frame is off by up to
-// 0.6 mm.
+// <= 250 ms between the two poses (0.072 mm), while the nearest reference frame is off by up to
+// 0.6 mm. When the last two reference frames were more than 250 ms apart (a starved machine skips
+// reference frames) there is no velocity and the frame takes the last pose exactly (the product's
+// rule, kPoseVelocityGapMaxUs): each frame is checked by the rule that placed it. A CI run with the
+// former 100 ms limit placed one frame of eight so (0.046 mm off) and failed the velocity bound.
 TEST(FusionPipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
   std::unique_ptr<wire::FusionPipeline> p = fusing_pipeline("xtion,tof");
   const char* why = "";
   CHECK_TRUE(p->start_mapping(&why));
   CHECK_TRUE(step_frames(*p, 3));
-  int checked = 0;
+  int by_velocity = 0, by_last_pose = 0;
   uint64_t last_checked_us = 0;
   float worst_mm = 0.0f, nearest_worst_mm = 0.0f;
   const uint64_t end = now_us() + 60000000u;
-  while (checked < 8 && now_us() < end) {
+  while (by_velocity < 8 && by_velocity + by_last_pose < 40 && now_us() < end) {
     p->step(now_us());
     sleep_ms(2);
     const wire::CameraStream& tof = p->camera_stream(1);
@@ -266,20 +269,27 @@ TEST(FusionPipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
     CHECK_TRUE(p->devices().known_pose(tof.index, tof.held->sequence, truth));
     const Pose placed = p->reference_pose_at(tof.held->stamp_us) * tof.T_ref_cam;
     const Pose nearest = p->reference_pose_at(p->reference_stamp_us()) * tof.T_ref_cam;
+    CHECK_TRUE((placed.R - truth.R).norm() < 1e-4f);
+    if (!p->reference_velocity_known()) {  // no velocity: exactly the last reference pose
+      CHECK_TRUE((placed.t - nearest.t).norm() == 0.0f && (placed.R - nearest.R).norm() == 0.0f);
+      ++by_last_pose;
+      continue;
+    }
     worst_mm = std::max(worst_mm, 1e3f * (placed.t - truth.t).norm());
     nearest_worst_mm = std::max(nearest_worst_mm, 1e3f * (nearest.t - truth.t).norm());
-    CHECK_TRUE((placed.R - truth.R).norm() < 1e-4f);
-    ++checked;
+    ++by_velocity;
   }
-  std::printf("paired tof frames: %d, placed within %.4f mm of their truth (the nearest reference pose: %.4f mm)\n",
-              checked, double(worst_mm), double(nearest_worst_mm));
-  CHECK_TRUE(checked >= 4);
+  std::printf("paired tof frames placed by velocity: %d, within %.4f mm of their truth (the nearest reference pose: "
+              "%.4f mm); at the last pose (no velocity): %d\n",
+              by_velocity, double(worst_mm), double(nearest_worst_mm), by_last_pose);
+  CHECK_TRUE(by_velocity + by_last_pose >= 4);
+  if (by_velocity == 0) std::printf("  (a starved machine: no two reference frames within 250 ms, the velocity path was not reached)\n");
   const hal::SimDepthCameraConfig rig;
   const double omega = 2.0 * M_PI / double(rig.rig_period_s), accel = double(rig.rig_radius_m) * omega * omega;
   const double window_s = 1e-6 * double(wire::FusionPipeline::kPairWindowUs);
   const double gap_s = 1e-6 * double(wire::FusionPipeline::kPoseVelocityGapMaxUs);
   const double bound_mm = 1e3 * accel * window_s * (window_s + gap_s) / 2.0 + 0.001;  // + float rounding at 0.7 m
-  CHECK_TRUE(worst_mm < bound_mm);
+  CHECK_TRUE_TEXT(worst_mm < bound_mm, (std::to_string(worst_mm) + " mm > " + std::to_string(bound_mm)).c_str());
   p->stop_mapping();
   p->shutdown();
 }

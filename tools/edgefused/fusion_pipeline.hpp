@@ -127,10 +127,14 @@ class FusionPipeline final : public runtime::Pipeline {
   static constexpr uint64_t kPairWindowUs = 40000;
   //! Gaps between the reference's last two processed frames that give a velocity for
   //! reference_pose_at(): at least 10 ms (a 100 fps camera; closer stamps would magnify pose noise
-  //! into the velocity) and at most three frame periods at 30 fps (a longer gap, a lost frame or a
-  //! new map leaves only the last pose).
+  //! into the velocity) and at most 250 ms. A board's pipeline steps slower than its camera (the
+  //! newest frame is taken): at load 9 on 2 cores the host steps every 100-200 ms, and a slow board
+  //! (am335x) may, too. The constant-velocity error a t_e (t_e + g) / 2 stays below the last pose's
+  //! v t_e while g < 2 v / a - t_e: for a robot at v = 0.25 m/s accelerating at a = 1 m/s^2 and the
+  //! 40 ms window, g < 460 ms; at 250 ms the velocity's 5.8 mm against 10 mm still pays. A longer
+  //! gap, a lost frame or a new map leaves only the last pose.
   static constexpr uint64_t kPoseVelocityGapMinUs = 10000;
-  static constexpr uint64_t kPoseVelocityGapMaxUs = 100000;
+  static constexpr uint64_t kPoseVelocityGapMaxUs = 250000;
 
   //! The reference camera's pose at capture time stamp_us: on the constant-velocity path through
   //! its last two processed frames (interpolated between them, extrapolated by at most
@@ -142,6 +146,9 @@ class FusionPipeline final : public runtime::Pipeline {
   Pose reference_pose_at(uint64_t stamp_us) const;
   //! Capture stamp of the reference camera's last processed frame (0 before the first).
   uint64_t reference_stamp_us() const { return ref_stamp_us_; }
+  //! True when reference_pose_at() has a velocity (the last two processed reference frames both
+  //! had poses, kPoseVelocityGapMinUs..kPoseVelocityGapMaxUs apart); false when it gives the last pose.
+  bool reference_velocity_known() const { return have_prev_ref_pose_; }
 
  private:
   static constexpr int kCamerasMax = 3;
