@@ -34,6 +34,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "edgefuse/core/row_runner.hpp"
 #include "edgefuse/core/status.hpp"
 #include "edgefuse/math/pose.hpp"
 #include "edgefuse/math/real.hpp"
@@ -157,14 +158,6 @@ struct IcpWorkspace {
     w.capacity = int(bytes / sizeof(typename IcpAccumulator<Real>::Row));
     return w;
   }
-};
-
-//! Hands rows [0, count) to `rows(job, begin, end)` in any split and returns when all are done
-//! (a thread pool on the host; null runner = the calling thread).
-struct RowRunner {
-  //! Calls rows(job, b, e) for disjoint [b, e) covering [0, count); returns when all are done.
-  void (*run)(void* self, void (*rows)(void* job, int begin, int end), void* job, int count) = nullptr;
-  void* self = nullptr;  //!< passed back as run's first argument (the pool)
 };
 
 //! Aligns the frame to the model.
