@@ -41,7 +41,7 @@ Status find_objects(const LocalizationRequest& request, Localizer& loc, Localiza
   return s;
 }
 
-Status run_localization(const TsdfVolume& volume, SurfacePoint* points, std::size_t capacity,
+Status run_localization_job(const TsdfVolume& volume, SurfacePoint* points, std::size_t capacity,
                         const LocalizationRequest& request, Localizer& loc, LocalizationReport& report) {
   report = LocalizationReport();
   Status s = load_map_scene(volume, points, capacity, request, loc, report);

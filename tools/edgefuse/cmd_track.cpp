@@ -14,19 +14,15 @@
 #include "commands.hpp"
 #include "core_setup.hpp"
 #include "fuse_options.hpp"
-#include "edgefuse/filters/depth_filter_chain.hpp"
 #include "edgefuse/io/dataset.hpp"
 #include "edgefuse/io/trajectory.hpp"
-#include "edgefuse/tracking/tracker.hpp"
-#include "parallel_tsdf.hpp"
-#include "pool_row_runner.hpp"
+#include "edgefuse/pipeline/mapper.hpp"
 
 namespace edgefuse::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 // CPU time of the whole process (all threads) in ms: on a shared machine, wall time also counts
 // the time other processes held the cores; CPU time does not.
 double cpu_ms() {
@@ -51,9 +47,81 @@ struct Totals {
   int ok = 0, degraded = 0, lost = 0, pushed = 0;
 };
 
+// The end of each phase of a mapping step, in wall and process CPU time.
+class PhaseClock : public StepObserver {
+ public:
+  void begin() {
+    wall_[0] = Clock::now();
+    cpu_[0] = cpu_ms();
+    for (int k = 1; k < 5; ++k) {
+      wall_[k] = wall_[0];
+      cpu_[k] = cpu_[0];
+    }
+  }
+  void phase_done(MapPhase phase) override {
+    const int k = int(phase) + 1;
+    wall_[k] = Clock::now();
+    cpu_[k] = cpu_ms();
+    for (int j = k + 1; j < 5; ++j) {  // phases that do not run take no time
+      wall_[j] = wall_[k];
+      cpu_[j] = cpu_[k];
+    }
+  }
+  //! Wall time of phase k (filter, raycast, track, integrate) in ms; k = 4: the whole step.
+  double wall_ms(int k) const {
+    const Clock::time_point a = k == 4 ? wall_[0] : wall_[k], b = k == 4 ? wall_[4] : wall_[k + 1];
+    return std::chrono::duration<double, std::milli>(b - a).count();
+  }
+  double cpu(int k) const { return k == 4 ? cpu_[4] - cpu_[0] : cpu_[k + 1] - cpu_[k]; }
+
+ private:
+  Clock::time_point wall_[5];
+  double cpu_[5] = {};
+};
+
 int fail(const std::string& msg) {
   std::fprintf(stderr, "edgefuse track: %s\n", msg.c_str());
   return 1;
+}
+
+void print_frame(std::size_t i, std::size_t n, double stamp_s, const TrackResult& r, const PhaseClock& clock) {
+  std::printf("frame %zu/%zu stamp %.6f: %-8s%s | filter %.2f raycast %.2f icp %.2f integrate %.2f ms", i + 1, n,
+              stamp_s, r.first ? "first" : to_string(r.state), r.push ? " push" : "     ", clock.wall_ms(0),
+              clock.wall_ms(1), clock.wall_ms(2), clock.wall_ms(3));
+  if (!r.first)
+    std::printf(" | inliers %.2f, coverage %.2f, rms %.2f mm, %d dof (weakest %.1e), it %d/%d/%d, start %s%s, "
+                "moved %.1f mm %.2f deg",
+                r.icp.inlier_ratio(), r.icp.coverage(), 1e3f * r.icp.rms_m, r.icp.observable, r.icp.weakest_ratio,
+                r.icp.iterations[2], r.icp.iterations[1], r.icp.iterations[0],
+                r.start == 0 ? "velocity" : "last pose", r.attempts > 1 ? " (2 tried)" : "", 1e3f * r.jump_m,
+                r.jump_deg);
+  std::printf("\n");
+  std::fflush(stdout);  // progress stays visible when the output goes to a file
+}
+
+void print_totals(std::size_t frame_count, const Totals& sum) {
+  const double n = double(frame_count);
+  std::printf("frames=%zu ok=%d degraded=%d lost=%d pushed=%d filter_ms=%.3f raycast_ms=%.3f icp_ms=%.3f "
+              "integrate_ms=%.3f loop_ms=%.3f fps=%.1f\n",
+              frame_count, sum.ok, sum.degraded, sum.lost, sum.pushed, sum.filter / n, sum.raycast / n, sum.icp / n,
+              sum.integrate / n, sum.loop / n, sum.loop > 0 ? 1000.0 * n / sum.loop : 0.0);
+  std::printf("cpu (process CPU time, all threads, per frame): filter_ms=%.3f raycast_ms=%.3f icp_ms=%.3f "
+              "integrate_ms=%.3f loop_ms=%.3f fps=%.1f\n",
+              sum.cpu[0] / n, sum.cpu[1] / n, sum.cpu[2] / n, sum.cpu[3] / n, sum.cpu[4] / n,
+              sum.cpu[4] > 0 ? 1000.0 * n / sum.cpu[4] : 0.0);
+}
+
+void add_frame(const TrackResult& r, const PhaseClock& clock, Totals& sum) {
+  sum.filter += clock.wall_ms(0);
+  sum.raycast += clock.wall_ms(1);
+  sum.icp += clock.wall_ms(2);
+  sum.integrate += clock.wall_ms(3);
+  sum.loop += clock.wall_ms(4);
+  for (int k = 0; k < 5; ++k) sum.cpu[k] += clock.cpu(k);
+  sum.ok += r.state == TrackState::kOk;
+  sum.degraded += r.state == TrackState::kDegraded;
+  sum.lost += r.state == TrackState::kLost;
+  sum.pushed += r.push;
 }
 
 }  // namespace
@@ -83,23 +151,14 @@ int cmd_track(int argc, char** argv) {
   if (frame_count == 0) return fail(seq.root + " has no frames");
   const PinholeIntrinsics& intr = seq.intr;
 
-  CoreSetup core;
-  if (!core.init(board, intr, err)) return fail(seq.root + ": " + err);
-  FramePyramid<real_t> pyramid;
-  if (core.buffers.pyramid<real_t>(0, intr, pyramid) != Status::kOk)
-    return fail("the frame pyramid does not fit the board's buffers (image too small or too large)");
-  const IcpWorkspace<real_t> icp_ws = core.buffers.icp_workspace<real_t>(0);
-
-  // Pre-filters (structured light or ToF by whether the sequence has amplitude images). The chain
-  // filters in place; its intermediate image uses the frame buffer of the last sensor slot, which
-  // this single-sensor command does not otherwise use.
+  // Pre-filters and noise model by the sensor's kind: ToF when the sequence has amplitude images.
   const bool tof = !seq.frames[0].amplitude_path.empty();
-  DepthFilterChain<real_t> filters = DepthFilterChain<real_t>::defaults_for(
-      intr, tof ? DepthSensorKind::kTimeOfFlight : DepthSensorKind::kStructuredLight);
-  if (filters.prepare(intr) != Status::kOk) return fail("depth filters: bad parameters for this sensor");
-  const ImageView<uint16_t> filter_scratch(
-      core.buffers.depth_frames + std::size_t(board.sensors_max - 1) * core.buffers.pixels_per_sensor, intr.width,
-      intr.height);
+  CoreSetup core;
+  CameraSlot cam;
+  if (!core.init(board, intr, err) ||
+      !core.bind_camera(cam, 0, intr, tof ? DepthSensorKind::kTimeOfFlight : DepthSensorKind::kStructuredLight,
+                        true, false, err))
+    return fail(seq.root + ": " + err);
 
   const Pose first_pose = seq.frames[0].has_pose ? seq.frames[0].T_world_cam : Pose::identity();
   std::vector<uint16_t> depth, amplitude;
@@ -108,10 +167,16 @@ int cmd_track(int argc, char** argv) {
   if (!centre_on_view(intr, depth, first_pose, settings, seq.frames[0].depth_path, err)) return fail(err);
   if (!core.make_volume(settings, err)) return fail(err);
 
-  TrackerParams params;
-  params.push.every_frame = args.has("push-every-frame");
-  Tracker tracker;
-  if (tracker.start(first_pose, params) != Status::kOk) return fail("bad tracker parameters");
+  PoolRunners threads;
+  threads.start(settings.threads);
+  MapperParams mp;
+  mp.poses = PoseMode::kTracked;
+  mp.tracker.push.every_frame = args.has("push-every-frame");
+  Mapper mapper;
+  if (mapper.init(core.volume, threads.runners(), core.spare_image(intr.width, intr.height),
+                  core.centre_scratch(intr), mp) != Status::kOk)
+    return fail("bad tracker parameters");
+  mapper.new_map_in_place();  // centred on the raw first view above
 
   const Vec3f& o = core.volume.origin_m();
   std::printf("edgefuse track: %s (%s, sensor %s), %zu of %zu frames, %dx%d fx %.1f fy %.1f, %s filters\n",
@@ -122,84 +187,34 @@ int cmd_track(int argc, char** argv) {
               settings.dim, settings.voxel_m, o.x(), o.y(), o.z(), settings.trunc_m,
               kFixedPointBuild ? "fixed-point" : "float", settings.threads,
               seq.frames[0].has_pose ? "ground truth" : "identity",
-              params.push.every_frame ? "every frame" : "after 1 cm / 1 deg");
-
-  WorkerPool pool;
-  pool.start(settings.threads);
-  PoolRowRunner pool_rows(pool);  // ICP rows over the pool (hal/os)
-  const RowRunner* rows = settings.threads > 1 ? pool_rows.runner() : nullptr;
+              mp.tracker.push.every_frame ? "every frame" : "after 1 cm / 1 deg");
 
   const bool use_colour = seq.colour_registered && core.volume.has_colour();
-  // The model ICP registers against: depth, vertex and normal maps. ICP reads no colour, so the
-  // tracking raycast skips the colour map (7 % of a 320x240 raycast's instructions).
-  RaycastMaps model = core.maps;
-  model.colour = ImageView<Rgba8>();
   std::vector<io::StampedPose> trajectory;
   trajectory.reserve(frame_count);
   Totals sum;
+  PhaseClock clock;
   for (std::size_t i = 0; i < frame_count; ++i) {
     const io::FrameRef& f = seq.frames[i];
     if (i > 0 && !io::load_depth(f, intr, depth, err)) return fail(err);
-    if (use_colour && !f.colour_path.empty() && !io::load_colour(f, intr, colour, err)) return fail(err);
+    const bool with_colour = use_colour && !f.colour_path.empty();
+    if (with_colour && !io::load_colour(f, intr, colour, err)) return fail(err);
     if (tof && !f.amplitude_path.empty() && !io::load_amplitude(f, intr, amplitude, err)) return fail(err);
-    const DepthFrame frame = core.stage_frame(depth, use_colour && !f.colour_path.empty() ? &colour : nullptr);
-    const ImageView<uint16_t> staged(const_cast<uint16_t*>(frame.depth.data), intr.width, intr.height);
-    const ImageView<const uint16_t> amp =
-        tof && !amplitude.empty() ? ImageView<const uint16_t>(amplitude.data(), intr.width, intr.height)
-                                  : ImageView<const uint16_t>();
+    const DepthFrame staged = core.stage_frame(depth, with_colour ? &colour : nullptr);
+    SensorFrame frame;
+    frame.depth = staged.depth;
+    frame.colour = staged.colour;
+    if (tof && !amplitude.empty()) frame.amplitude = ImageView<const uint16_t>(amplitude.data(), intr.width, intr.height);
 
-    double cpu[6];
-    cpu[0] = cpu_ms();
-    const Clock::time_point t_loop = Clock::now();
-    Clock::time_point t0 = t_loop;
-    Status s = filters.run(staged, amp, filter_scratch, staged);
-    const double t_filter = ms_since(t0);
-    cpu[1] = cpu_ms();
-    t0 = Clock::now();
-    if (s == Status::kOk && i > 0)
-      s = raycast_parallel<real_t>(pool, core.volume, intr, tracker.raycast_pose(), model);
-    const double t_raycast = ms_since(t0);
-    cpu[2] = cpu_ms();
-    t0 = Clock::now();
-    TrackResult r;
-    if (s == Status::kOk) s = build_pyramid<real_t>(frame.depth, PyramidParams(), pyramid);
-    if (s == Status::kOk) s = tracker.track<real_t>(pyramid, model, intr, icp_ws, r, rows);
-    const double t_icp = ms_since(t0);
-    cpu[3] = cpu_ms();
-    t0 = Clock::now();
-    if (s == Status::kOk && r.push)
-      s = integrate_parallel<real_t>(pool, core.volume, intr, core.ray_norms, frame, r.T_world_cam, core.scratch);
-    const double t_integrate = ms_since(t0);
-    const double t_total = ms_since(t_loop);
-    cpu[4] = cpu_ms();
-    for (int k = 0; k < 4; ++k) sum.cpu[k] += cpu[k + 1] - cpu[k];
-    sum.cpu[4] += cpu[4] - cpu[0];
+    clock.begin();
+    ReferenceStep step;
+    const Status s = mapper.map_reference(cam, frame, nullptr, first_pose, step, &clock);
     if (s != Status::kOk) return fail("frame " + std::to_string(i) + " (" + f.depth_path + "): " + to_string(s));
-
-    trajectory.push_back(io::StampedPose{f.stamp_s, r.T_world_cam});
-    sum.filter += t_filter;
-    sum.raycast += t_raycast;
-    sum.icp += t_icp;
-    sum.integrate += t_integrate;
-    sum.loop += t_total;
-    sum.ok += r.state == TrackState::kOk;
-    sum.degraded += r.state == TrackState::kDegraded;
-    sum.lost += r.state == TrackState::kLost;
-    sum.pushed += r.push;
-    std::printf("frame %zu/%zu stamp %.6f: %-8s%s | filter %.2f raycast %.2f icp %.2f integrate %.2f ms", i + 1,
-                frame_count, f.stamp_s, r.first ? "first" : to_string(r.state), r.push ? " push" : "     ", t_filter,
-                t_raycast, t_icp, t_integrate);
-    if (!r.first)
-      std::printf(" | inliers %.2f, coverage %.2f, rms %.2f mm, %d dof (weakest %.1e), it %d/%d/%d, start %s%s, "
-                  "moved %.1f mm %.2f deg",
-                  r.icp.inlier_ratio(), r.icp.coverage(), 1e3f * r.icp.rms_m, r.icp.observable, r.icp.weakest_ratio,
-                  r.icp.iterations[2],
-                  r.icp.iterations[1], r.icp.iterations[0], r.start == 0 ? "velocity" : "last pose",
-                  r.attempts > 1 ? " (2 tried)" : "", 1e3f * r.jump_m, r.jump_deg);
-    std::printf("\n");
-    std::fflush(stdout);  // progress stays visible when the output goes to a file
+    trajectory.push_back(io::StampedPose{f.stamp_s, step.T_world_cam});
+    add_frame(step.track, clock, sum);
+    print_frame(i, frame_count, f.stamp_s, step.track, clock);
   }
-  pool.stop();
+  threads.pool.stop();
 
   const std::string out = args.get("out", "track.txt");
   if (!io::write_tum_trajectory(out, trajectory, err,
@@ -214,15 +229,7 @@ int cmd_track(int argc, char** argv) {
                 xs == Status::kOutputTruncated ? " (truncated at the board's point capacity)" : "",
                 args.get("cloud").c_str());
   }
-  const double n = double(frame_count);
-  std::printf("frames=%zu ok=%d degraded=%d lost=%d pushed=%d filter_ms=%.3f raycast_ms=%.3f icp_ms=%.3f "
-              "integrate_ms=%.3f loop_ms=%.3f fps=%.1f\n",
-              frame_count, sum.ok, sum.degraded, sum.lost, sum.pushed, sum.filter / n, sum.raycast / n, sum.icp / n,
-              sum.integrate / n, sum.loop / n, sum.loop > 0 ? 1000.0 * n / sum.loop : 0.0);
-  std::printf("cpu (process CPU time, all threads, per frame): filter_ms=%.3f raycast_ms=%.3f icp_ms=%.3f "
-              "integrate_ms=%.3f loop_ms=%.3f fps=%.1f\n",
-              sum.cpu[0] / n, sum.cpu[1] / n, sum.cpu[2] / n, sum.cpu[3] / n, sum.cpu[4] / n,
-              sum.cpu[4] > 0 ? 1000.0 * n / sum.cpu[4] : 0.0);
+  print_totals(frame_count, sum);
   return 0;
 }
 

@@ -58,6 +58,31 @@ DepthFrame CoreSetup::stage_frame(const std::vector<uint16_t>& depth, const std:
   return f;
 }
 
+bool CoreSetup::bind_camera(CameraSlot& cam, int slot, const PinholeIntrinsics& intr, DepthSensorKind kind,
+                            bool bilateral, bool colour_map, std::string& err) const {
+  const char* why = "";
+  if (cam.bind(buffers, build_board(), slot, intr, kind, bilateral, colour_map, &why) == Status::kOk) return true;
+  err = why;
+  return false;
+}
+
+ImageView<uint16_t> CoreSetup::spare_image(int width, int height) const {
+  const BoardCapacities& board = build_board();
+  return ImageView<uint16_t>(buffers.depth_frames + std::size_t(board.sensors_max - 1) * buffers.pixels_per_sensor,
+                             width, height);
+}
+
+ViewCentreScratch CoreSetup::centre_scratch(const PinholeIntrinsics& intr) {
+  const std::size_t n = std::size_t(intr.width / 2 + 1) * std::size_t(intr.height / 2 + 1);
+  centre_xyz.assign(3 * n, 0.0f);
+  ViewCentreScratch s;
+  s.xs = centre_xyz.data();
+  s.ys = s.xs + n;
+  s.zs = s.ys + n;
+  s.capacity = n;
+  return s;
+}
+
 int CoreSetup::hit_percent(const PinholeIntrinsics& intr) const {
   std::size_t hits = 0;
   for (int v = 0; v < intr.height; ++v)
@@ -89,18 +114,12 @@ Status CoreSetup::extract_cloud(io::PointCloud& cloud, uint8_t min_weight, bool 
 
 bool centre_on_view(const PinholeIntrinsics& intr, const std::vector<uint16_t>& depth, const Pose& T_world_cam,
                     FuseSettings& s, const std::string& depth_path, std::string& err) {
-  std::vector<float> xs, ys, zs;
-  for (int v = 0; v < intr.height; v += 2)
-    for (int u = 0; u < intr.width; u += 2) {
-      const uint16_t raw = depth[std::size_t(v) * intr.width + u];
-      const float z = float(raw) / intr.depth_scale;
-      if (raw == 0 || z < intr.min_range_m || z > intr.max_range_m) continue;
-      const Vec3f p = T_world_cam * intr.back_project(float(u), float(v), z);
-      xs.push_back(p.x());
-      ys.push_back(p.y());
-      zs.push_back(p.z());
-    }
-  if (xs.empty()) {
+  const std::size_t n = std::size_t(intr.width / 2 + 1) * std::size_t(intr.height / 2 + 1);
+  std::vector<float> xyz(3 * n);
+  const ViewCentreScratch scratch{xyz.data(), xyz.data() + n, xyz.data() + 2 * n, n};
+  Vec3f centre;
+  if (view_centre(intr, ImageView<const uint16_t>(depth.data(), intr.width, intr.height), T_world_cam, scratch,
+                  centre) == 0) {
     // Usually the camera's numbers, not the image: a wrong depth_scale puts every pixel out of range.
     char what[200];
     std::snprintf(what, sizeof(what), "no pixel's depth (raw / depth_scale %g) lies in [min_range, max_range] = "
@@ -109,12 +128,7 @@ bool centre_on_view(const PinholeIntrinsics& intr, const std::vector<uint16_t>& 
           "ranges, or give --origin)";
     return false;
   }
-  auto median = [](std::vector<float>& v) {
-    std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
-  const Vec3f centre(median(xs), median(ys), median(zs));
-  s.origin_m = centre - Vec3f::Constant(0.5f * float(s.dim) * s.voxel_m);
+  s.origin_m = volume_origin_for(centre, s.dim, s.voxel_m);
   return true;
 }
 

@@ -7,10 +7,15 @@
 
 #include "edgefuse/io/cloud.hpp"
 #include "edgefuse/memory/arena.hpp"
+#include "edgefuse/pipeline/camera_slot.hpp"
+#include "edgefuse/pipeline/kernels.hpp"
+#include "edgefuse/pipeline/view_centre.hpp"
 #include "edgefuse/sensor/pinhole.hpp"
 #include "edgefuse/tsdf/integrate.hpp"
 #include "edgefuse/tsdf/raycast.hpp"
 #include "edgefuse/tsdf/volume.hpp"
+#include "pool_row_runner.hpp"
+#include "worker_pool.hpp"
 
 namespace edgefuse::cli {
 
@@ -30,6 +35,7 @@ struct CoreSetup {
   RaycastMaps maps;          //!< for the sensor given to init()
   FrameScratch scratch;      //!< tiles of that sensor
   ImageView<real_t> ray_norms;  //!< |ray| per pixel of that sensor
+  std::vector<float> centre_xyz;  //!< centre_scratch()'s arrays
 
   //! Carves the arena and checks the sensor against the board's capacity.
   bool init(const BoardCapacities& board, const PinholeIntrinsics& intr, std::string& err);
@@ -37,12 +43,38 @@ struct CoreSetup {
   bool make_volume(const FuseSettings& s, std::string& err);
   //! Copies a frame into the static frame buffers (sizes were checked by init()).
   DepthFrame stage_frame(const std::vector<uint16_t>& depth, const std::vector<Rgb8>* colour);
+  //! Binds sensor slot `slot` to a camera (CameraSlot::bind), the error naming the refusal.
+  //! \param cam the slot  \param slot index  \param intr the camera  \param kind its filters and noise
+  //! \param bilateral bilateral filter on  \param colour_map raycast colour too  \param err why not
+  bool bind_camera(CameraSlot& cam, int slot, const PinholeIntrinsics& intr, DepthSensorKind kind, bool bilateral,
+                   bool colour_map, std::string& err) const;
+  //! The pre-filters' intermediate image: the depth buffer of the board's last sensor slot, which
+  //! the single-camera commands do not otherwise use.
+  ImageView<uint16_t> spare_image(int width, int height) const;
+  //! Scratch for centring a map on a view of `intr`'s size (start-up: allocates once).
+  ViewCentreScratch centre_scratch(const PinholeIntrinsics& intr);
   //! Share of pixels the last raycast hit, in percent.
   int hit_percent(const PinholeIntrinsics& intr) const;
   //! The zero-crossing cloud into the static point buffer, then into `cloud`.
   //! \param cloud output  \param min_weight extract_points' support rule (0: every observed pair)
   //! \param with_support fill cloud.support (each point's evidence, SurfacePoint::support)
   Status extract_cloud(io::PointCloud& cloud, uint8_t min_weight = 0, bool with_support = false) const;
+};
+
+//! The kernels' threads of a host command: a worker pool and its row runners (start-up).
+struct PoolRunners {
+  WorkerPool pool;
+  PoolRowRunner tsdf{pool, 1};
+  PoolRowRunner icp{pool};
+  //! Starts `threads` workers (the caller included).
+  void start(int threads) { pool.start(threads); }
+  //! The runners to give the pipeline: ICP rows only over more than one thread.
+  KernelRunners runners() const {
+    KernelRunners r;
+    r.tsdf = tsdf.runner();
+    r.icp = pool.size() > 1 ? icp.runner() : nullptr;
+    return r;
+  }
 };
 
 //! Places the volume so that its centre is the median of the points the frame sees.

@@ -4,47 +4,24 @@
 #include <cstring>
 
 #include "edgefuse/board_config.hpp"
-#include "edgefuse/sensor/pinhole.hpp"
 
 namespace edgefuse::wire {
 
-bool CameraStream::bind(CoreBuffers& b, const BoardCapacities& board, bool bilateral, std::string& err) {
+bool CameraStream::bind(CoreBuffers& b, const BoardCapacities& board, const PinholeIntrinsics& intr, bool tof,
+                        bool bilateral, std::string& err) {
   const std::string where = "camera '" + name + "'";
-  if (index < 0 || index >= board.sensors_max || index >= kBuildBoard.sensors_max) {
+  if (index >= kBuildBoard.sensors_max) {
     err = where + ": board " + board.name + " has buffers for " + std::to_string(board.sensors_max) + " sensors";
     return false;
   }
-  if (intr.width > board.image_width_max || intr.height > board.image_height_max) {
-    err = where + ": a " + std::to_string(intr.width) + "x" + std::to_string(intr.height) +
-          " image exceeds board " + board.name + "'s largest image";
-    return false;
-  }
-  const std::size_t off = std::size_t(index) * b.pixels_per_sensor;
-  const int w = intr.width, h = intr.height;
-  ray_norms = ImageView<real_t>(reinterpret_cast<real_t*>(b.ray_norms) + off, w, h);
-  if (build_ray_norms<real_t>(intr, ray_norms) != Status::kOk) {
-    err = where + ": bad intrinsics";
-    return false;
-  }
-  scratch = b.scratch(index);
   // Tracking ICP and calib fuse read depth, vertex and normal only: no colour map, so the raycast
-  // skips its colour lookups (as edgefuse track).
-  maps = b.raycast_maps(index, w, h, false);
-  filtered = ImageView<uint16_t>(b.depth_frames + off, w, h);
-  trust = b.trust_maps != nullptr ? ImageView<uint8_t>(b.trust_maps + off, w, h) : ImageView<uint8_t>();
-  if (b.pyramid<real_t>(index, intr, pyramid) != Status::kOk) {
-    err = where + ": the frame pyramid does not fit the board's buffers";
+  // skips its colour lookups.
+  const char* why = "";
+  if (slot.bind(b, board, index, intr, tof ? DepthSensorKind::kTimeOfFlight : DepthSensorKind::kStructuredLight,
+                bilateral, false, &why) != Status::kOk) {
+    err = where + ": " + why + " (board " + board.name + ")";
     return false;
   }
-  icp_ws = b.icp_workspace<real_t>(index);
-  filters = DepthFilterChain<real_t>::defaults_for(intr, tof ? DepthSensorKind::kTimeOfFlight
-                                                             : DepthSensorKind::kStructuredLight);
-  filters.bilateral_enabled = bilateral;
-  if (filters.prepare(intr) != Status::kOk) {
-    err = where + ": the depth filters refuse its intrinsics";
-    return false;
-  }
-  noise = tof ? NoiseModel::time_of_flight() : NoiseModel::structured_light();
   // The frame pool: this sensor slot's pool in the memory map (kFramePoolSlots frames of the
   // board's largest image; regions "acquisition pools: ..."), bound once here.
   pools_ = &b.frame_pools;
@@ -100,11 +77,14 @@ void CameraStream::release_held() {
   held_new = false;
 }
 
-bool CameraStream::filter_held(ImageView<uint16_t> filter_scratch) {
-  if (held == nullptr) return false;
-  return filters.run(held->depth_view(), held->amplitude_view(),
-                     ImageView<uint16_t>(filter_scratch.data, held->width, held->height),
-                     ImageView<uint16_t>(filtered.data, held->width, held->height)) == Status::kOk;
+SensorFrame CameraStream::held_frame() const {
+  SensorFrame f;
+  if (held == nullptr) return f;
+  f.depth = held->depth_view();
+  f.amplitude = held->amplitude_view();
+  if (held->has_colour) f.colour = held->colour_view();
+  f.stamp_us = held->stamp_us;
+  return f;
 }
 
 const char* CameraStream::status_text() const {

@@ -16,11 +16,8 @@
 #include <memory>
 #include <string>
 
-#include "core_setup.hpp"
-#include "edgefuse/filters/depth_filter_chain.hpp"
-#include "edgefuse/fusion/fusion_rules.hpp"
-#include "edgefuse/sensor/noise_model.hpp"
-#include "edgefuse/tracking/pyramid.hpp"
+#include "edgefuse/memory/memmap.hpp"
+#include "edgefuse/pipeline/camera_slot.hpp"
 #include "hal/acquisition/acquisition_counters.hpp"
 #include "hal/acquisition/camera_worker.hpp"
 #include "hal/acquisition/frame_channel.hpp"
@@ -31,9 +28,8 @@ namespace edgefuse::wire {
 struct CameraStream {
   std::string name;             //!< hal.toml name
   int index = -1;               //!< camera index in hal.toml (= the board's sensor slot)
-  PinholeIntrinsics intr;
-  bool tof = false;             //!< amplitude images: ToF filters and noise model
   bool fuse = false;            //!< integrated into the map (sensors.fuse)
+  CameraSlot slot;              //!< its slot of the board's per-sensor buffers, filters, noise model
   hal::AcquisitionCounters counters;
   hal::FrameChannel channel;
   std::unique_ptr<hal::CameraWorker> worker;
@@ -43,20 +39,6 @@ struct CameraStream {
   uint32_t skipped = 0;                   //!< held frames replaced before they were processed
   uint32_t integrated = 0;                //!< frames integrated into the map
   uint32_t unpaired = 0;                  //!< no reference pose within the pairing window
-  NoiseMean sigma;                        //!< the fused frames' median modelled noise (fusion rules)
-  //! Mean median noise of the fused frames (0 before any).
-  float median_sigma() const { return sigma.mean_m(); }
-
-  // Slot of the board's per-sensor buffers.
-  ImageView<real_t> ray_norms;
-  FrameScratch scratch;
-  RaycastMaps maps;
-  ImageView<uint16_t> filtered;  //!< the pre-filtered depth of the held frame
-  ImageView<uint8_t> trust;      //!< trust map (empty when the board has none)
-  FramePyramid<real_t> pyramid;
-  IcpWorkspace<real_t> icp_ws;
-  DepthFilterChain<real_t> filters;
-  NoiseModel noise;
 
   // Extrinsics: pose of this camera in the reference camera's frame (T_ref_cam).
   Pose T_ref_cam;
@@ -64,9 +46,11 @@ struct CameraStream {
   const char* mount_source = "none";
 
   //! Start-up: binds the slot's buffers, filters and pool.
-  //! \param buffers the carved arena  \param board capacities  \param bilateral bilateral filter on
+  //! \param buffers the carved arena  \param board capacities  \param intr the camera
+  //! \param tof amplitude images: ToF filters and noise model  \param bilateral bilateral filter on
   //! \param err names the camera
-  bool bind(CoreBuffers& buffers, const BoardCapacities& board, bool bilateral, std::string& err);
+  bool bind(CoreBuffers& buffers, const BoardCapacities& board, const PinholeIntrinsics& intr, bool tof,
+            bool bilateral, std::string& err);
   //! Empties the pool (its thread must be stopped; the held frame is dropped).
   bool restart_pool();
   //! Swaps the held frame for the newest ready one. \return true when a new frame is held
@@ -77,9 +61,8 @@ struct CameraStream {
   bool take_nearest(uint64_t stamp_us);
   //! Returns the held frame to the channel (before the worker restarts the pool).
   void release_held();
-  //! Runs the pre-filters on the held frame into `filtered`.
-  //! \param filter_scratch a spare image of the board's largest size
-  bool filter_held(ImageView<uint16_t> filter_scratch);
+  //! The held frame as the pipeline takes it.
+  SensorFrame held_frame() const;
   //! "state=.. frames=.. ..." for the status command (static text per stream, no heap).
   const char* status_text() const;
 

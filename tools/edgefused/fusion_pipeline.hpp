@@ -50,14 +50,14 @@
 
 #include "camera_stream.hpp"
 #include "scanner_stream.hpp"
-#include "core_setup.hpp"
-#include "edgefuse/filters/depth_filter_chain.hpp"
 #include "edgefuse/localize/localizer.hpp"
+#include "edgefuse/pipeline/mapper.hpp"
+#include "edgefuse/pipeline/still_detector.hpp"
 #include "edgefuse/runtime/pipeline.hpp"
-#include "edgefuse/tracking/tracker.hpp"
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/runtime/calibration.hpp"
 #include "hal/devices/hal_devices.hpp"
+#include "pool_row_runner.hpp"
 #include "worker_pool.hpp"
 
 namespace edgefuse::wire {
@@ -98,7 +98,7 @@ class FusionPipeline final : public runtime::Pipeline {
                       const char** why) override;
   void calibration_changed(const runtime::CalibrationData& d) override;
   runtime::PipelineStats stats() const override { return stats_; }
-  bool map_empty() const override { return map_frames_ == 0; }
+  bool map_empty() const override { return mapper_.map_frames() == 0; }
   int device_count() const override { return camera_count_ + (scanner_.name.empty() ? 0 : 1); }
   const char* device_name(int i) const override;
   const char* device_state(int i) const override;
@@ -106,7 +106,7 @@ class FusionPipeline final : public runtime::Pipeline {
   const char* model_name(int i) const override { return loc_.model(i).name; }
 
   //! Frames integrated into the current map.
-  uint32_t map_frames() const { return map_frames_; }
+  uint32_t map_frames() const { return mapper_.map_frames(); }
   //! Where a tracked map starts: T_world_flange (robot pose at the reference camera's frame
   //! `sequence`) * T_flange_rig (hand-eye, calibration) * T_rig_ref; the identity without a robot pose.
   //! \param sequence the first frame's sequence number
@@ -117,54 +117,31 @@ class FusionPipeline final : public runtime::Pipeline {
   const CameraStream& camera_stream(int i) const { return cams_[i]; }
   //! The line scanner's stream (name "" without one).
   const ScannerStream& scanner_stream() const { return scanner_; }
-  //! Support rule of the map's extraction (fusion_rules.hpp, as `edgefuse fuse --sensors` for the
-  //! fused cameras' median noise so far): 0 for one camera without a scanner (equal weights).
-  uint8_t map_support_weight() const;
-  //! fusion5b: sub-unit fill of the fused cameras (fusion_rules.hpp default_sub_unit_fill, medians so far).
-  int map_sub_unit_fill() const;
+  //! Support rule of the map's extraction (Mapper::support_weight()).
+  uint8_t map_support_weight() const { return mapper_.support_weight(); }
 
   //! Largest stamp difference between a camera's frame and the reference frame whose pose it takes.
-  static constexpr uint64_t kPairWindowUs = 40000;
-  //! Gaps between the reference's last two processed frames that give a velocity for
-  //! reference_pose_at(): at least 10 ms (a 100 fps camera; closer stamps would magnify pose noise
-  //! into the velocity) and at most 250 ms. A board's pipeline steps slower than its camera (the
-  //! newest frame is taken): at load 9 on 2 cores the host steps every 100-200 ms, and a slow board
-  //! (am335x) may, too. The constant-velocity error a t_e (t_e + g) / 2 stays below the last pose's
-  //! v t_e while g < 2 v / a - t_e: for a robot at v = 0.25 m/s accelerating at a = 1 m/s^2 and the
-  //! 40 ms window, g < 460 ms; at 250 ms the velocity's 5.8 mm against 10 mm still pays. A longer
-  //! gap, a lost frame or a new map leaves only the last pose.
-  static constexpr uint64_t kPoseVelocityGapMinUs = 10000;
-  static constexpr uint64_t kPoseVelocityGapMaxUs = 250000;
-
-  //! The reference camera's pose at capture time stamp_us: on the constant-velocity path through
-  //! its last two processed frames (interpolated between them, extrapolated by at most
-  //! kPairWindowUs beyond either), or its last pose when there is no such pair. Another camera's
-  //! frame, paired within kPairWindowUs, is placed at this pose times its extrinsics (a rig moving
-  //! at 0.25 m/s moves 8 mm between two 30 fps frames: the nearest reference frame alone would
-  //! misplace it by up to 10 mm).
-  //! \param stamp_us a capture stamp (the frame clock of DepthFrame::stamp_us)
-  Pose reference_pose_at(uint64_t stamp_us) const;
+  static constexpr uint64_t kPairWindowUs = PoseHistory::kPairWindowUs;
+  //! The reference camera's pose at capture time stamp_us (PoseHistory::pose_at).
+  Pose reference_pose_at(uint64_t stamp_us) const { return mapper_.reference().pose_at(stamp_us); }
   //! Capture stamp of the reference camera's last processed frame (0 before the first).
-  uint64_t reference_stamp_us() const { return ref_stamp_us_; }
-  //! True when reference_pose_at() has a velocity (the last two processed reference frames both
-  //! had poses, kPoseVelocityGapMinUs..kPoseVelocityGapMaxUs apart); false when it gives the last pose.
-  bool reference_velocity_known() const { return have_prev_ref_pose_; }
+  uint64_t reference_stamp_us() const { return mapper_.reference().stamp_us(); }
+  //! True when reference_pose_at() interpolates (PoseHistory::has_velocity).
+  bool reference_velocity_known() const { return mapper_.reference().has_velocity(); }
 
  private:
   static constexpr int kCamerasMax = 3;
+  bool init_cameras(const std::string& hal_path, std::string& err);
+  bool init_fused(const std::string& hal_path, std::string& err);
+  bool init_scanner(const BoardCapacities& board, std::string& err);
+  bool init_models(std::string& err);
+  void print_setup() const;
   void process_reference(uint64_t now_us);
   void process_other(CameraStream& c);
-  //! fusion5: records the frame's median noise and sets f.jump_m and f.sub_unit_fill_units from it
-  //! (fusion_rules.hpp).
-  //! \param c the camera  \param f its staged frame  \param sigma_m the frame's median noise (build_trust_map's)
-  void apply_noise_rules(CameraStream& c, DepthFrame& f, float sigma_m);
-  //! The fused cameras' median noise in fusion order (0 past fuse_count_).
-  void fused_median_sigmas(float (&sigma)[kCamerasMax]) const;
   void process_profile(const hal::LineProfile& p);
   void drain_profiles();
   void update_mounts();
   void update_drops();
-  void centre_volume(const DepthFrame& frame, const Pose& T_world_cam);
   void localize_thread();
   void run_localization();
 
@@ -178,33 +155,23 @@ class FusionPipeline final : public runtime::Pipeline {
   std::vector<io::SensorExtrinsic> rig_extrinsics_;  // the replayed rig set's extrinsics.txt
   runtime::CalibrationData calib_;
   bool use_trust_ = false;
-  PinholeIntrinsics intr_;  // the reference camera's
-  cli::CoreSetup core_;
-  cli::FuseSettings fuse_;
-  DepthFilterChain<real_t> filters_;
+  CoreBuffers buffers_;
+  TsdfVolume volume_;
+  int threads_ = 1;
+  Mapper mapper_;
   Localizer loc_;
   LocalizeParams loc_params_;
-  Tracker tracker_;
   uint32_t lost_frames_ = 0;
   float track_err_m_ = 0;
   WorkerPool pool_;
+  PoolRowRunner tsdf_rows_{pool_, 1};
+  PoolRowRunner icp_rows_{pool_};
 
   bool camera_running_ = false;
   bool mapping_ = false;
-  bool clear_pending_ = true;  // the volume is cleared and re-centred on the next frame
-  uint32_t map_frames_ = 0;
   uint32_t pipeline_drops_ = 0;  // frames taken but not integrated (filter, pose or integration failed)
-  bool have_ref_pose_ = false;
-  Pose ref_pose_;             // the reference camera's pose at its last processed frame
-  uint64_t ref_stamp_us_ = 0;  // that frame's capture stamp
-  bool have_prev_ref_pose_ = false;  // the frame before it had a pose too, at most kPoseVelocityGapMaxUs earlier
-  Pose prev_ref_pose_;
-  uint64_t prev_ref_stamp_us_ = 0;
-  bool have_still_anchor_ = false;
-  Pose still_anchor_;  //!< pose where the current still period began (still detection)
+  StillDetector still_;
   uint64_t last_frame_us_ = 0;
-  uint64_t last_capture_us_ = 0;
-  Vec3f view_sum_ = Vec3f::Zero();
   runtime::PipelineStats stats_;
   bool warned_no_pose_ = false;
 

@@ -65,7 +65,7 @@ bool FusionPipeline::calibrate_pair(const char* from, const char* to, runtime::P
     std::snprintf(reason, sizeof(reason), "a localisation is running");
     return false;
   }
-  if (map_frames_ == 0 || !have_ref_pose_) {
+  if (mapper_.map_frames() == 0 || !mapper_.reference().has_pose()) {
     std::snprintf(reason, sizeof(reason), "the map is empty (scan start and let %.40s see the scene)", from);
     return false;
   }
@@ -79,26 +79,27 @@ bool FusionPipeline::calibrate_pair(const char* from, const char* to, runtime::P
   uint64_t used_stamp_us = 0, last_used_us = 0, waiting_since_us = clock.now_us();
   reason[0] = '\0';
   for (int attempts = 0; mean.count() < kCalibFrames && attempts < 2 * kCalibFrames;) {
-    if (ref_stamp_us_ != used_stamp_us) {
-      if (camera_running_) B.take_nearest(ref_stamp_us_);
+    if (mapper_.reference().stamp_us() != used_stamp_us) {
+      if (camera_running_) B.take_nearest(mapper_.reference().stamp_us());
       if (B.held == nullptr) {
         if (mean.count() == 0 && attempts == 0)
           std::snprintf(reason, sizeof(reason), "no frame from %.40s yet (status shows its state)", to);
       } else {
         const uint64_t s = B.held->stamp_us;
-        const uint64_t dt_us = s > ref_stamp_us_ ? s - ref_stamp_us_ : ref_stamp_us_ - s;
+        const uint64_t dt_us = s > mapper_.reference().stamp_us() ? s - mapper_.reference().stamp_us() : mapper_.reference().stamp_us() - s;
         if (dt_us <= kPairWindowUs) {
-          used_stamp_us = ref_stamp_us_;
+          used_stamp_us = mapper_.reference().stamp_us();
           ++attempts;
           const hal::DepthFrame& frame = *B.held;
-          if (!B.filter_held(ImageView<uint16_t>(g_calib_scratch, frame.width, frame.height)) ||
-              build_pyramid<real_t>(ImageView<const uint16_t>(B.filtered.data, frame.width, frame.height),
-                                    PyramidParams(), B.pyramid) != Status::kOk) {
+          if (B.slot.filter(B.held_frame(), ImageView<uint16_t>(g_calib_scratch, frame.width, frame.height)) !=
+                  Status::kOk ||
+              build_pyramid<real_t>(ImageView<const uint16_t>(B.slot.filtered.data, frame.width, frame.height),
+                                    PyramidParams(), B.slot.pyramid) != Status::kOk) {
             std::snprintf(reason, sizeof(reason), "%.40s's frame could not be filtered", to);
             continue;
           }
-          const Status st = ::edgefuse::calibrate_pair<real_t>(core_.volume, reference_pose_at(s), guess, B.intr, B.pyramid,
-                                                               B.maps, B.icp_ws, params, r);
+          const Status st = ::edgefuse::calibrate_pair<real_t>(volume_, reference_pose_at(s), guess, B.slot.intr,
+                                                               B.slot.pyramid, B.slot.maps, B.slot.icp_ws, params, r);
           if (st != Status::kOk) {
             std::snprintf(reason, sizeof(reason), "calibration failed: %s", to_string(st));
           } else if (!r.accepted) {
@@ -117,7 +118,7 @@ bool FusionPipeline::calibrate_pair(const char* from, const char* to, runtime::P
     }
     // The next reference frame (mapped as usual); stop when none comes.
     const uint64_t now_us = clock.now_us();
-    if (used_stamp_us == ref_stamp_us_ && last_used_us != used_stamp_us) {
+    if (used_stamp_us == mapper_.reference().stamp_us() && last_used_us != used_stamp_us) {
       last_used_us = used_stamp_us;
       waiting_since_us = now_us;  // counted from the end of the last estimate (slow under qemu)
     }

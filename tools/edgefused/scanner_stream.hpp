@@ -11,7 +11,7 @@
 #include <memory>
 #include <string>
 
-#include "core_setup.hpp"
+#include "edgefuse/memory/memmap.hpp"
 #include "edgefuse/sensor/line_scanner.hpp"
 #include "hal/acquisition/acquisition_counters.hpp"
 #include "hal/acquisition/frame_channel.hpp"

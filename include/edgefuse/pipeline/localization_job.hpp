@@ -1,7 +1,7 @@
 // The localisation job on a map: surface extraction -> scene (nearest-neighbour grid, normals,
 // viewpoint) -> bin (detected, or given by configuration) -> object poses with every loaded model,
 // or model-free segments without models, in picking order (Localizer::results()). edgefused runs
-// run_localization() on its localisation thread; `edgefuse localize` runs the stages one by one,
+// run_localization_job() on its localisation thread; `edgefuse localize` runs the stages one by one,
 // printing its diagnostics between them. No heap; the points go to the board's point buffer.
 #pragma once
 
@@ -50,7 +50,7 @@ Status remove_bin(const LocalizationRequest& request, Localizer& loc, Localizati
 //! \param report count set
 Status find_objects(const LocalizationRequest& request, Localizer& loc, LocalizationReport& report);
 //! All three stages.
-Status run_localization(const TsdfVolume& volume, SurfacePoint* points, std::size_t capacity,
+Status run_localization_job(const TsdfVolume& volume, SurfacePoint* points, std::size_t capacity,
                         const LocalizationRequest& request, Localizer& loc, LocalizationReport& report);
 
 }  // namespace edgefuse
