@@ -13,7 +13,7 @@
 #include "edgefuse/io/dataset.hpp"
 #include "edgefuse/io/mesh_collector.hpp"
 #include "edgefuse/tsdf/extract.hpp"
-#include "parallel_tsdf.hpp"
+#include "edgefuse/pipeline/mapper.hpp"
 
 namespace edgefuse::cli {
 namespace {
@@ -107,8 +107,21 @@ int cmd_fuse(int argc, char** argv) {
               core.volume.has_colour() ? "colour" : "no colour", kFixedPointBuild ? "fixed-point" : "float",
               settings.threads, board.name);
 
-  WorkerPool pool;
-  pool.start(settings.threads);
+  // The frames enter the map through the pipeline's mapping step at their recorded poses, as
+  // recorded (no pre-filters): what the sensor measured, fused.
+  PoolRunners threads;
+  threads.start(settings.threads);
+  MapperParams mp;
+  mp.prefilter = false;
+  CameraSlot cam;
+  Mapper mapper;
+  if (!core.bind_camera(cam, 0, seq.intr, DepthSensorKind::kStructuredLight, false, true, err) ||
+      mapper.init(core.volume, threads.runners(), core.spare_image(seq.intr.width, seq.intr.height),
+                  core.centre_scratch(seq.intr), mp) != Status::kOk) {
+    std::fprintf(stderr, "edgefuse fuse: %s: %s\n", seq.root.c_str(), err.empty() ? "mapping refused" : err.c_str());
+    return 1;
+  }
+  mapper.new_map_in_place();
   const bool use_colour = seq.colour_registered && core.volume.has_colour();
   double integrate_ms = 0, raycast_ms = 0;
   for (std::size_t i = 0; i < frame_count; ++i) {
@@ -121,13 +134,17 @@ int cmd_fuse(int argc, char** argv) {
       std::fprintf(stderr, "edgefuse fuse: %s\n", err.c_str());
       return 1;
     }
-    const DepthFrame frame = core.stage_frame(depth, use_colour && !f.colour_path.empty() ? &colour : nullptr);
+    const DepthFrame staged = core.stage_frame(depth, use_colour && !f.colour_path.empty() ? &colour : nullptr);
+    SensorFrame frame;
+    frame.depth = staged.depth;
+    frame.colour = staged.colour;
     const Pose T = single_unposed ? Pose::identity() : f.T_world_cam;
     auto t0 = std::chrono::steady_clock::now();
-    Status s = integrate_parallel<real_t>(pool, core.volume, seq.intr, core.ray_norms, frame, T, core.scratch);
+    ReferenceStep step;
+    Status s = mapper.map_reference(cam, frame, &T, T, step);
     const double ti = ms_since(t0);
     t0 = std::chrono::steady_clock::now();
-    if (s == Status::kOk) s = raycast_parallel<real_t>(pool, core.volume, seq.intr, T, core.maps);
+    if (s == Status::kOk) s = raycast_frame<real_t>(threads.runners().tsdf, core.volume, seq.intr, T, cam.maps);
     const double tr = ms_since(t0);
     if (s != Status::kOk) {
       std::fprintf(stderr, "edgefuse fuse: frame %zu (%s): %s\n", i, f.depth_path.c_str(), to_string(s));
@@ -139,7 +156,7 @@ int cmd_fuse(int argc, char** argv) {
       std::printf("frame %zu/%zu stamp %.6f: integrate %.2f ms, raycast %.2f ms, %d%% of pixels hit the model\n", i + 1,
                   frame_count, f.stamp_s, ti, tr, core.hit_percent(seq.intr));
   }
-  pool.stop();
+  threads.pool.stop();
 
   const std::size_t voxels = core.volume.observed_voxels();
   auto t0 = std::chrono::steady_clock::now();
