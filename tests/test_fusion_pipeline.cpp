@@ -44,7 +44,7 @@ bool step_frames(wire::FusionPipeline& p, uint32_t frames) {
   return p.stats().frames >= target;
 }
 
-bool localize(wire::FusionPipeline& p, link::LocalizationResult& r) {
+bool localize(wire::FusionPipeline& p, runtime::LocalizationOutcome& r) {
   const char* why = "";
   if (!p.start_localization(now_us(), &why)) return false;
   const uint64_t end = now_us() + 120000000u;
@@ -66,7 +66,7 @@ void run_pipeline(bool tracked) {
   CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
   CHECK_EQUAL(0, p->model_count());  // no models configured, no replay: model-free segments
   CHECK_TRUE(p->map_empty());
-  link::LocalizationResult r;
+  runtime::LocalizationOutcome r;
   const char* why = "";
   CHECK_FALSE(p->start_localization(now_us(), &why));  // nothing mapped yet
   STRCMP_EQUAL("the map is empty", why);
@@ -82,14 +82,14 @@ void run_pipeline(bool tracked) {
   const long allocations = edgefuse_test::alloc_count();
   CHECK_EQUAL(0L, allocations);
 
-  CHECK_EQUAL(int(edgefuse_link_TrackingState_TRACKING_OK), int(p->stats().tracking));
+  CHECK_TRUE(runtime::TrackingState::kOk == p->stats().tracking);
   // The simulated rig sways on its circle at 2 pi 0.02 m / 8 s = 15.7 mm/s: it leaves the 1 mm
   // still tolerance within 64 ms, so it is never still for long (at any frame rate).
   CHECK_TRUE(still_since == 0 || mapped_us - still_since < 200000u);
-  CHECK_EQUAL(int(edgefuse_link_ResultStatus_RESULT_OK), int(r.status));
+  CHECK_FALSE(r.failed);
   CHECK_TRUE(r.stamp_us > 0);
-  CHECK_TRUE(r.objects_count >= 4);  // bin_rig_a's six objects as segments (some may merge)
-  for (pb_size_t i = 0; i < r.objects_count; ++i) CHECK_EQUAL(0u, r.objects[i].id);
+  CHECK_TRUE(r.count >= 4);  // bin_rig_a's six objects as segments (some may merge)
+  for (int i = 0; i < r.count; ++i) CHECK_EQUAL(0u, r.objects[i].id);
   p->stop_mapping();
   p->shutdown();
 }
@@ -173,8 +173,8 @@ TEST(FusionPipeline, CameraFaultsKeepTheMap) {
   cam.set_plugged(false);
   CHECK_TRUE(wait_state(*p, hal::DeviceState::kUnplugged));
   // The frames delivered before the unplug are integrated first (one step each on a slow machine).
-  for (int i = 0; i < 500 && p->stats().tracking != edgefuse_link_TrackingState_TRACKING_OFF; ++i) step_for(*p, 10);
-  CHECK_EQUAL_TEXT(int(edgefuse_link_TrackingState_TRACKING_OFF), int(p->stats().tracking), p->device_state(0));
+  for (int i = 0; i < 500 && p->stats().tracking != runtime::TrackingState::kOff; ++i) step_for(*p, 10);
+  CHECK_TEXT(runtime::TrackingState::kOff == p->stats().tracking, p->device_state(0));
   CHECK_FALSE(p->map_empty());
   cam.set_plugged(true);
   CHECK_TRUE(step_frames(*p, 3));
@@ -209,11 +209,11 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   // frame's median noise sets its depth-jump limit, and a set mixing the ToF's sub-unit samples
   // with the xtion's extracts with the evidence rule (support 9). fusion5b: such a set fills sub-unit
   // samples only to 3 units, so its support rule is 4 again (fusion_rules.hpp rule 3).
-  CHECK_TRUE(p->camera_stream(0).sigma.frames >= 2 && p->camera_stream(1).sigma.frames >= 2);
+  CHECK_TRUE(p->camera_stream(0).slot.sigma.frames >= 2 && p->camera_stream(1).slot.sigma.frames >= 2);
   const float sigma_ref_m = 0.5f * wire::FusionPipelineConfig().voxel_m;  // the pipeline's trust reference
-  CHECK_FALSE(sub_unit_sensor(p->camera_stream(0).median_sigma(), sigma_ref_m));
-  CHECK_TRUE(sub_unit_sensor(p->camera_stream(1).median_sigma(), sigma_ref_m));
-  LONGS_EQUAL(kSubUnitFillUnits, p->map_sub_unit_fill());
+  CHECK_FALSE(sub_unit_sensor(p->camera_stream(0).slot.median_sigma(), sigma_ref_m));
+  CHECK_TRUE(sub_unit_sensor(p->camera_stream(1).slot.median_sigma(), sigma_ref_m));
+  LONGS_EQUAL(kSubUnitFillUnits, p->mapper().sub_unit_fill());
   LONGS_EQUAL(kMinSupportWeight, p->map_support_weight());
   // The tof's newest frame against the map (the sim rig sways slowly: within the pairing window).
   runtime::PairCalibrationReport r, attempt_r;
@@ -262,7 +262,7 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
 // <= 250 ms between the two poses (0.072 mm), while the nearest reference frame is off by up to
 // 0.6 mm. When the last two reference frames were more than 250 ms apart (a starved machine skips
 // reference frames) there is no velocity and the frame takes the last pose exactly (the product's
-// rule, kPoseVelocityGapMaxUs): each frame is checked by the rule that placed it. A CI run with the
+// rule, PoseHistory::kVelocityGapMaxUs): each frame is checked by the rule that placed it. A CI run with the
 // former 100 ms limit placed one frame of eight so (0.046 mm off) and failed the velocity bound.
 TEST(FusionPipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
   std::unique_ptr<wire::FusionPipeline> p = fusing_pipeline("xtion,tof");
@@ -302,7 +302,7 @@ TEST(FusionPipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
   const hal::SimDepthCameraConfig rig;
   const double omega = 2.0 * M_PI / double(rig.rig_period_s), accel = double(rig.rig_radius_m) * omega * omega;
   const double window_s = 1e-6 * double(wire::FusionPipeline::kPairWindowUs);
-  const double gap_s = 1e-6 * double(wire::FusionPipeline::kPoseVelocityGapMaxUs);
+  const double gap_s = 1e-6 * double(PoseHistory::kVelocityGapMaxUs);
   const double bound_mm = 1e3 * accel * window_s * (window_s + gap_s) / 2.0 + 0.001;  // + float rounding at 0.7 m
   CHECK_TRUE_TEXT(worst_mm < bound_mm, (std::to_string(worst_mm) + " mm > " + std::to_string(bound_mm)).c_str());
   p->stop_mapping();

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "alloc_counter.hpp"
+#include "edgefuse/link/publisher.hpp"
 #include "edgefuse/runtime/runtime.hpp"
 
 #include <CppUTest/TestHarness.h>
@@ -33,12 +34,18 @@ class FakePipeline : public Pipeline {
     done_at = t + 50000;
     return true;
   }
-  bool poll_localization(link::LocalizationResult& out) override {
+  bool poll_localization(LocalizationOutcome& out) override {
     if (!localizing || now < done_at) return false;
     localizing = false;
     out.stamp_us = now - 1000;
-    link::add_object(out, 1, Pose{}, 0.9f, Vec3f::Zero(), Vec3f::UnitZ());
-    link::add_object(out, 2, Pose{}, 0.3f, Vec3f::Zero(), Vec3f::UnitZ());
+    ObjectResult o;
+    o.id = 1;
+    o.score = 0.9f;
+    o.approach = Vec3f::UnitZ();
+    out.add(o);
+    o.id = 2;
+    o.score = 0.3f;
+    out.add(o);
     return true;
   }
   // xtion -> tof "calibrates" to a fixed mounting; anything else is refused.
@@ -76,7 +83,7 @@ class FakeStorage : public CalibrationStorage {
   bool load(CalibrationData&, char*, size_t) override { return true; }
 };
 
-class Capture : public LinkSink {
+class Capture : public link::FrameSink {
  public:
   std::vector<link::Message> got;
   bool record = true;
@@ -101,7 +108,8 @@ struct Rig {
   ParamStore params;
   FakeStorage storage;
   Capture link;
-  Runtime rt{pipe, params, storage, link};
+  link::LinkPublisher publisher{link};
+  Runtime rt{pipe, params, storage, publisher};
   uint64_t t = 1000000;
   void run_ms(int ms) {
     for (int i = 0; i < ms; i += 10) rt.tick(t += 10000);

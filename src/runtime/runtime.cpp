@@ -17,19 +17,14 @@ const char* to_string(RuntimeState s) {
 
 namespace {
 
-edgefuse_link_RuntimeState wire_state(RuntimeState s) {
-  switch (s) {
-    case RuntimeState::kIdle: return edgefuse_link_RuntimeState_STATE_IDLE;
-    case RuntimeState::kMapping: return edgefuse_link_RuntimeState_STATE_MAPPING;
-    case RuntimeState::kLocalize: return edgefuse_link_RuntimeState_STATE_LOCALIZE;
-    case RuntimeState::kReport: return edgefuse_link_RuntimeState_STATE_REPORT;
+const char* tracking_text(TrackingState t) {
+  switch (t) {
+    case TrackingState::kOff: return "off";
+    case TrackingState::kOk: return "ok";
+    case TrackingState::kDegraded: return "degraded";
+    case TrackingState::kLost: return "lost";
   }
-  return edgefuse_link_RuntimeState_STATE_ERROR;
-}
-
-const char* tracking_text(edgefuse_link_TrackingState t) {
-  static const char* const k[] = {"off", "ok", "degraded", "lost"};
-  return int(t) >= 0 && int(t) < 4 ? k[t] : "?";
+  return "?";
 }
 
 void print_pose(ConsoleWriter& out, const char* what, const CalibPose& p) {
@@ -39,28 +34,41 @@ void print_pose(ConsoleWriter& out, const char* what, const CalibPose& p) {
 
 }  // namespace
 
-void Runtime::send(const link::Message& m) {
-  size_t n = 0;
-  const uint8_t* f = writer_.encode(m, n);
-  if (f != nullptr) link_.send(f, n);
-}
-
 void Runtime::send_heartbeat(uint64_t now_us) {
-  beat_ = link::make_heartbeat(heartbeat_seq_++, now_us);
   const PipelineStats st = pipeline_.stats();
-  link::Heartbeat& h = beat_.body.heartbeat;
-  h.state = wire_state(state_);
+  HeartbeatInfo h;
+  h.seq = heartbeat_seq_++;
+  h.stamp_us = now_us;
+  h.state = state_;
   h.tracking = st.tracking;
   h.fps = st.fps;
   h.frames = st.frames;
   h.drops = st.drops;
   h.results = result_seq_;
   h.uptime_s = uint32_t((now_us - start_us_) / 1000000u);
-  send(beat_);
+  out_.publish(h);
+}
+
+// Drops objects below the score threshold, numbers the result, sends it.
+void Runtime::send_result() {
+  const float min_score = float(params_.get_number(kLocalizeMinScore));
+  int kept = 0;
+  for (int i = 0; i < result_.count; ++i)
+    if (result_.objects[i].score >= min_score) result_.objects[kept++] = result_.objects[i];
+  result_.count = kept;
+  ResultInfo r;
+  r.seq = result_seq_++;
+  r.stamp_us = result_.stamp_us;
+  r.status = result_.failed ? ResultStatus::kFailed : kept == 0 ? ResultStatus::kNoObjects : ResultStatus::kOk;
+  r.objects = result_.objects;
+  r.count = kept;
+  for (int i = 0; i < params_.get_int(kReportRepeat); ++i) out_.publish(r);
 }
 
 bool Runtime::begin_localize(uint64_t now_us, const char** why) {
   if (!pipeline_.start_localization(now_us, why)) return false;
+  result_ = LocalizationOutcome();
+  result_.stamp_us = now_us;
   state_ = RuntimeState::kLocalize;
   return true;
 }
@@ -89,22 +97,10 @@ void Runtime::tick(uint64_t now_us) {
       break;
     }
     case RuntimeState::kLocalize:
-      msg_ = link::make_result(0, now_us);
-      if (pipeline_.poll_localization(msg_.body.result)) state_ = RuntimeState::kReport;
+      if (pipeline_.poll_localization(result_)) state_ = RuntimeState::kReport;
       break;
     case RuntimeState::kReport: {
-      // Drop objects below the score threshold, number the result, send it.
-      link::LocalizationResult& r = msg_.body.result;
-      const float min_score = float(params_.get_number(kLocalizeMinScore));
-      pb_size_t kept = 0;
-      for (pb_size_t i = 0; i < r.objects_count; ++i)
-        if (r.objects[i].score >= min_score) r.objects[kept++] = r.objects[i];
-      r.objects_count = kept;
-      if (kept == 0 && r.status == edgefuse_link_ResultStatus_RESULT_OK)
-        r.status = edgefuse_link_ResultStatus_RESULT_NO_OBJECTS;
-      r.seq = result_seq_++;
-      msg_.which_body = edgefuse_link_Message_result_tag;
-      for (int i = 0; i < params_.get_int(kReportRepeat); ++i) send(msg_);
+      send_result();
       state_ = scanning_ ? RuntimeState::kMapping : RuntimeState::kIdle;
       if (!scanning_) pipeline_.stop_mapping();
       break;

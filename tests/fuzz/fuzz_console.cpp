@@ -18,6 +18,7 @@
 #include "../../tools/edgefused/sim_pipeline.hpp"
 #include "edgefuse/link/frame.hpp"
 #include "edgefuse/link/messages.hpp"
+#include "edgefuse/link/publisher.hpp"
 #include "edgefuse/runtime/console.hpp"
 #include "edgefuse/runtime/runtime.hpp"
 #include "fuzz_check.hpp"
@@ -83,7 +84,7 @@ class MemoryStorage : public CalibrationStorage {
   uint32_t seq_ = 0;
 };
 
-class CheckedLink : public LinkSink {
+class CheckedLink : public link::FrameSink {
  public:
   void send(const uint8_t* frame, size_t len) override {
     FUZZ_CHECK(len <= sizeof copy_, "a %zu-byte frame", len);
@@ -125,8 +126,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   sim::SimPipeline pipeline;
   MemoryStorage storage;
   CheckedLink link;
+  link::LinkPublisher publisher(link);
   CheckedWriter out;
-  Runtime runtime(pipeline, params, storage, link);
+  Runtime runtime(pipeline, params, storage, publisher);
   Console console(runtime, params, out, "edgefuse fuzz");
   uint64_t now_us = 1000000;
   runtime.tick(now_us);

@@ -15,7 +15,6 @@
 #include "edgefuse/board_config.hpp"
 #include "edgefuse/io/board_hal.hpp"
 #include "edgefuse/io/rig.hpp"
-#include "edgefuse/link/messages.hpp"
 #include "edgefuse/memory/arena.hpp"
 #include "edgefuse/pipeline/localization_job.hpp"
 #include "hal/posix/monotonic_clock.hpp"
@@ -51,10 +50,10 @@ Pose to_pose(const runtime::CalibPose& p) {
   return Pose::from_tq(p.tq[0], p.tq[1], p.tq[2], p.tq[3], p.tq[4], p.tq[5], p.tq[6]);
 }
 
-edgefuse_link_TrackingState link_state(TrackState s) {
-  return s == TrackState::kOk         ? edgefuse_link_TrackingState_TRACKING_OK
-         : s == TrackState::kDegraded ? edgefuse_link_TrackingState_TRACKING_DEGRADED
-                                      : edgefuse_link_TrackingState_TRACKING_LOST;
+runtime::TrackingState runtime_state(TrackState s) {
+  return s == TrackState::kOk         ? runtime::TrackingState::kOk
+         : s == TrackState::kDegraded ? runtime::TrackingState::kDegraded
+                                      : runtime::TrackingState::kLost;
 }
 
 }  // namespace
@@ -408,7 +407,7 @@ void FusionPipeline::stop_mapping() {
   still_.reset();
   stats_.fps = 0;
   stats_.still_since_us = 0;
-  stats_.tracking = edgefuse_link_TrackingState_TRACKING_OFF;
+  stats_.tracking = runtime::TrackingState::kOff;
 }
 
 void FusionPipeline::reset_map() {
@@ -436,7 +435,7 @@ void FusionPipeline::step(uint64_t now_us) {
   } else if (st != hal::DeviceState::kStreaming) {
     // Stalled, reopening or unplugged: tracking pauses, the map is kept; it resumes with the frames.
     stats_.fps = 0;
-    stats_.tracking = edgefuse_link_TrackingState_TRACKING_OFF;
+    stats_.tracking = runtime::TrackingState::kOff;
     still_.reset();
   }
   stats_.still_since_us = still_.still_since_us();
@@ -522,13 +521,13 @@ void FusionPipeline::process_reference(uint64_t now_us) {
     return;
   }
   if (config_.tracked) {
-    stats_.tracking = link_state(step.track.state);
+    stats_.tracking = runtime_state(step.track.state);
     if (step.track.state == TrackState::kLost) ++lost_frames_;
     if (has_known) track_err_m_ = (step.T_world_cam.t - known.t).norm();  // against the backend's truth
   } else if (!has_known) {
     // No truth for this frame (a real device, or a recording without ground truth) and tracking is
     // off (tracking.poses = known): the frame cannot be placed and is not integrated.
-    stats_.tracking = edgefuse_link_TrackingState_TRACKING_LOST;
+    stats_.tracking = runtime::TrackingState::kLost;
     ++pipeline_drops_;
     if (!warned_no_pose_) {
       std::printf("pipeline: camera %s gives no known pose (set tracking.poses = tracked): frames are not integrated\n",
@@ -537,7 +536,7 @@ void FusionPipeline::process_reference(uint64_t now_us) {
     }
     return;
   } else {
-    stats_.tracking = edgefuse_link_TrackingState_TRACKING_OK;
+    stats_.tracking = runtime::TrackingState::kOk;
   }
   still_.update(step.T_world_cam, now_us);
   stats_.still_since_us = still_.still_since_us();
@@ -603,7 +602,7 @@ bool FusionPipeline::start_localization(uint64_t, const char** why) {
   return true;
 }
 
-bool FusionPipeline::poll_localization(link::LocalizationResult& out) {
+bool FusionPipeline::poll_localization(runtime::LocalizationOutcome& out) {
   if (!localizing_ || !done_) return false;
   out = result_;
   localizing_ = false;
@@ -623,13 +622,12 @@ void FusionPipeline::localize_thread() {
   }
 }
 
-// The localisation job on the map, converted to the link's result. No heap.
+// The localisation job on the map, as the runtime reports it. No heap.
 void FusionPipeline::run_localization() {
   const double t0 = thread_cpu_ms();
-  link::LocalizationResult& r = result_;
-  r = link::LocalizationResult();
+  runtime::LocalizationOutcome& r = result_;
+  r = runtime::LocalizationOutcome();
   r.stamp_us = mapper_.last_capture_us();
-  r.status = edgefuse_link_ResultStatus_RESULT_OK;
   const BoardCapacities& board = build_board();
   LocalizationRequest request;
   request.params = loc_params_;
@@ -640,7 +638,7 @@ void FusionPipeline::run_localization() {
   LocalizationReport report;
   const std::size_t cap = std::min<std::size_t>(board.points_max, board.scene_points_max);
   if (run_localization_job(volume_, buffers_.points, cap, request, loc_, report) != Status::kOk) {
-    r.status = edgefuse_link_ResultStatus_RESULT_FAILED;
+    r.failed = true;
     std::printf("localize: %s of %zu surface points refused (%s)\n", report.failed, report.surface_points,
                 to_string(report.status));
     return;
@@ -648,8 +646,13 @@ void FusionPipeline::run_localization() {
   const LocalizedObject* o = loc_.results();
   for (std::size_t i = 0; i < report.count; ++i) {
     // id: 1 + the model's index in `model list` (0: a model-free segment); in picking order.
-    const uint32_t id = o[i].model >= 0 ? uint32_t(o[i].model + 1) : 0u;
-    if (!link::add_object(r, id, o[i].T_world_object, o[i].score, o[i].grasp_m, o[i].approach)) break;
+    runtime::ObjectResult obj;
+    obj.id = o[i].model >= 0 ? uint32_t(o[i].model + 1) : 0u;
+    obj.T_world_object = o[i].T_world_object;
+    obj.score = o[i].score;
+    obj.grasp_m = o[i].grasp_m;
+    obj.approach = o[i].approach;
+    if (!r.add(obj)) break;
     const Eigen::Quaternionf q = o[i].T_world_object.quaternion();
     const Vec3f& t = o[i].T_world_object.t;
     std::printf("localize: %zu %s t %.4f %.4f %.4f q %.5f %.5f %.5f %.5f score %.3f\n", i + 1,

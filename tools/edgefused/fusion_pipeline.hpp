@@ -4,7 +4,7 @@
 // sanity checks, stall -> reopen with back-off, unplug/replug) -> the sensor kind's depth
 // pre-filters -> pose -> integration into the static TSDF -> on LOCALIZE: surface extraction, bin
 // removal and model-based localisation (PPF + ICP + free-space verification) or, without models,
-// model-free segments -> a LocalizationResult for the link.
+// model-free segments -> the objects for the runtime (plain types; the link encodes them).
 //
 // Sensors (sensors.fuse): the cameras that feed the map; the first is the reference whose poses
 // are known or tracked. Another camera's frame, paired with the reference frame nearest in time
@@ -93,7 +93,7 @@ class FusionPipeline final : public runtime::Pipeline {
   void reset_map() override;
   void step(uint64_t now_us) override;
   bool start_localization(uint64_t now_us, const char** why) override;
-  bool poll_localization(link::LocalizationResult& out) override;
+  bool poll_localization(runtime::LocalizationOutcome& out) override;
   bool calibrate_pair(const char* from, const char* to, runtime::PairCalibrationReport& out,
                       const char** why) override;
   void calibration_changed(const runtime::CalibrationData& d) override;
@@ -117,6 +117,8 @@ class FusionPipeline final : public runtime::Pipeline {
   const CameraStream& camera_stream(int i) const { return cams_[i]; }
   //! The line scanner's stream (name "" without one).
   const ScannerStream& scanner_stream() const { return scanner_; }
+  //! The mapping step (map frames, fusion rules, reference poses).
+  const Mapper& mapper() const { return mapper_; }
   //! Support rule of the map's extraction (Mapper::support_weight()).
   uint8_t map_support_weight() const { return mapper_.support_weight(); }
 
@@ -183,7 +185,7 @@ class FusionPipeline final : public runtime::Pipeline {
   bool request_ = false;
   std::atomic<bool> localizing_{false};
   std::atomic<bool> done_{false};
-  link::LocalizationResult result_;
+  runtime::LocalizationOutcome result_;
   double last_localize_cpu_ms_ = 0;
 };
 

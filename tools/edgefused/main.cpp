@@ -20,6 +20,7 @@
 #include "edgefuse/hal/runtime/calib_file_store.hpp"
 #include "edgefuse/hal/runtime/config_toml.hpp"
 #include "edgefuse/hal/runtime/sd_notify.hpp"
+#include "edgefuse/link/publisher.hpp"
 #include "edgefuse/memory/arena.hpp"
 #include "edgefuse/runtime/console.hpp"
 #include "edgefuse/runtime/runtime.hpp"
@@ -81,7 +82,7 @@ void close_port(Port& p) {
 }
 
 // Sends every frame to the link's serial port, the TCP clients and the UDP destination.
-class LinkFanout : public runtime::LinkSink {
+class LinkFanout : public link::FrameSink {
  public:
   int serial_fd = -1;
   hal::TcpServer* tcp = nullptr;
@@ -140,6 +141,7 @@ runtime::ParamStore g_params;
 sim::SimPipeline g_sim_pipeline;    // pipeline.source = simulated: fixed test poses
 wire::FusionPipeline g_fusion;      // pipeline.source = fusion (default): HAL -> TSDF -> localisation
 LinkFanout g_link;
+link::LinkPublisher g_publisher(g_link);
 FdWriter g_console_out;
 hal::TcpServer g_tcp;
 hal::UdpSender g_udp;
@@ -267,7 +269,7 @@ int main(int argc, char** argv) {
   // Calibration: the newest valid slot, a corrupt one reported.
   static hal::CalibFileStore store(g_params.get_text(runtime::kCalibDir));
   static FileCalibStorage storage(store);
-  static runtime::Runtime rt(*pipeline, g_params, storage, g_link);
+  static runtime::Runtime rt(*pipeline, g_params, storage, g_publisher);
   {
     runtime::CalibrationData d;
     hal::CalibLoadReport rep;

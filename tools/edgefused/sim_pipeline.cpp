@@ -33,7 +33,7 @@ void SimPipeline::step(uint64_t now_us) {
   now_us_ = now_us;
   if (!mapping_) {
     stats_.fps = 0;
-    stats_.tracking = edgefuse_link_TrackingState_TRACKING_OFF;
+    stats_.tracking = runtime::TrackingState::kOff;
     stats_.still_since_us = 0;
     return;
   }
@@ -44,7 +44,7 @@ void SimPipeline::step(uint64_t now_us) {
     capture_us_ = last_frame_us_;
   }
   stats_.fps = 30.0f;
-  stats_.tracking = edgefuse_link_TrackingState_TRACKING_OK;
+  stats_.tracking = runtime::TrackingState::kOk;
   stats_.still_since_us = now_us - mapping_since_us_ >= kMovingUs ? mapping_since_us_ + kMovingUs : 0;
 }
 
@@ -58,17 +58,19 @@ bool SimPipeline::start_localization(uint64_t now_us, const char** why) {
   return true;
 }
 
-bool SimPipeline::poll_localization(link::LocalizationResult& out) {
+bool SimPipeline::poll_localization(runtime::LocalizationOutcome& out) {
   if (!localizing_ || now_us_ < localize_done_us_) return false;
   localizing_ = false;
+  out = runtime::LocalizationOutcome();
   out.stamp_us = capture_us_;
-  out.status = edgefuse_link_ResultStatus_RESULT_OK;
-  out.objects_count = 0;
   for (int i = 0; i < 3; ++i) {
     const float* p = kSimObjects[i].tq;
-    const Pose T = Pose::from_tq(p[0], p[1], p[2], p[3], p[4], p[5], p[6]);
-    // Grasp from above: the object's origin, approached along -z of the world.
-    link::add_object(out, uint32_t(i + 1), T, kSimObjects[i].score, T.t, Vec3f(0, 0, -1));
+    runtime::ObjectResult o;
+    o.id = uint32_t(i + 1);
+    o.T_world_object = Pose::from_tq(p[0], p[1], p[2], p[3], p[4], p[5], p[6]);
+    o.score = kSimObjects[i].score;
+    o.grasp_m = o.T_world_object.t;  // grasp from above: the object's origin, approached along -z of the world
+    out.add(o);
   }
   return true;
 }

@@ -23,7 +23,7 @@ class SimPipeline : public runtime::Pipeline {
   void reset_map() override { map_frames_ = 0; }
   void step(uint64_t now_us) override;
   bool start_localization(uint64_t now_us, const char** why) override;
-  bool poll_localization(link::LocalizationResult& out) override;
+  bool poll_localization(runtime::LocalizationOutcome& out) override;
   bool calibrate_pair(const char* from, const char* to, runtime::PairCalibrationReport& out,
                       const char** why) override;
   runtime::PipelineStats stats() const override { return stats_; }

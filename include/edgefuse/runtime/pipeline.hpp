@@ -7,17 +7,47 @@
 
 #include <cstdint>
 
-#include "edgefuse/link/messages.hpp"
+#include "edgefuse/math/pose.hpp"
 #include "edgefuse/runtime/calibration.hpp"
 
 namespace edgefuse::runtime {
+
+//! The tracking of the reference camera as the runtime reports it.
+enum class TrackingState : uint8_t { kOff, kOk, kDegraded, kLost };
 
 struct PipelineStats {
   uint32_t frames = 0;  //!< frames processed since start
   uint32_t drops = 0;   //!< frames dropped since start
   float fps = 0;        //!< recent frame rate
-  edgefuse_link_TrackingState tracking = edgefuse_link_TrackingState_TRACKING_OFF;
+  TrackingState tracking = TrackingState::kOff;
   uint64_t still_since_us = 0;  //!< when the rig stopped moving (0: moving or unknown)
+};
+
+//! One localised object as the runtime reports it.
+struct ObjectResult {
+  uint32_t id = 0;                     //!< 1 + the model's index in `model list`; 0: a model-free segment
+  Pose T_world_object;                 //!< object-to-world pose
+  float score = 0;                     //!< 0..1
+  Vec3f grasp_m = Vec3f::Zero();       //!< grasp point in the world frame
+  Vec3f approach = Vec3f(0, 0, -1);    //!< unit approach direction in the world frame
+};
+
+//! Objects a result carries at most (the link's message holds as many; every board's
+//! objects_max is checked against it at compile time).
+inline constexpr int kResultObjectsMax = 32;
+
+//! A finished localisation, in picking order.
+struct LocalizationOutcome {
+  bool failed = false;    //!< the job refused (its reason is logged)
+  uint64_t stamp_us = 0;  //!< capture stamp of the last frame in the map
+  int count = 0;
+  ObjectResult objects[kResultObjectsMax];
+  //! Appends an object. \return false when full
+  bool add(const ObjectResult& o) {
+    if (count >= kResultObjectsMax) return false;
+    objects[count++] = o;
+    return true;
+  }
 };
 
 //! Outcome of `calib fuse <from> <to>`: the mounting of `to` in `from`'s frame and how well the
@@ -52,7 +82,7 @@ class Pipeline {
   virtual bool start_localization(uint64_t now_us, const char** why) = 0;
   //! True once the started localisation finished; fills `out` (objects, status, capture stamp;
   //! the runtime sets the sequence number).
-  virtual bool poll_localization(link::LocalizationResult& out) = 0;
+  virtual bool poll_localization(LocalizationOutcome& out) = 0;
   //! Rigid-pair calibration of `to` against the map filled by `from` (paper Fig. 6) on the live
   //! map and `to`'s newest frame; runs to completion (a fraction of a second).
   //! \param from the map's sensor  \param to the sensor to register  \param out the result

@@ -1,30 +1,20 @@
 // The on-board runtime's logic: the state machine IDLE -> MAPPING -> LOCALIZE -> REPORT driven by
 // console commands and the still-period trigger, heartbeats and results out over the link, and the
 // console's service (status, calibration, parameters). OS-free: edgefused supplies the pipeline,
-// the calibration storage, the link outputs and the clock. No heap.
+// the calibration storage, the publisher (the pose link encodes what it is given) and the clock.
+// No heap.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 
-#include "edgefuse/link/messages.hpp"
 #include "edgefuse/runtime/calibration.hpp"
 #include "edgefuse/runtime/console_service.hpp"
 #include "edgefuse/runtime/params.hpp"
 #include "edgefuse/runtime/pipeline.hpp"
+#include "edgefuse/runtime/publisher.hpp"
 
 namespace edgefuse::runtime {
-
-enum class RuntimeState { kIdle, kMapping, kLocalize, kReport };
-const char* to_string(RuntimeState s);
-
-//! Where frames go (serial, TCP clients, UDP): each implementation sends them all.
-class LinkSink {
- public:
-  virtual ~LinkSink() = default;
-  //! \param frame a whole frame (delimiter included)  \param len its length
-  virtual void send(const uint8_t* frame, size_t len) = 0;
-};
 
 //! Persistent calibration (the file store on the board).
 class CalibrationStorage {
@@ -40,9 +30,9 @@ class Runtime : public ConsoleService {
   //! \param pipeline produces frames and poses
   //! \param params   runtime parameters (shared with the console)
   //! \param storage  calibration persistence
-  //! \param link     result and heartbeat output
-  Runtime(Pipeline& pipeline, ParamStore& params, CalibrationStorage& storage, LinkSink& link)
-      : pipeline_(pipeline), params_(params), storage_(storage), link_(link) {}
+  //! \param out      result and heartbeat output
+  Runtime(Pipeline& pipeline, ParamStore& params, CalibrationStorage& storage, Publisher& out)
+      : pipeline_(pipeline), params_(params), storage_(storage), out_(out) {}
 
   //! Sets the calibration loaded at start-up.
   void set_calibration(const CalibrationData& d) {
@@ -77,14 +67,14 @@ class Runtime : public ConsoleService {
   CmdResult param_changed(int id) override;
 
  private:
-  void send(const link::Message& m);
+  void send_result();
   void send_heartbeat(uint64_t now_us);
   bool begin_localize(uint64_t now_us, const char** why);
 
   Pipeline& pipeline_;
   ParamStore& params_;
   CalibrationStorage& storage_;
-  LinkSink& link_;
+  Publisher& out_;
   CalibrationData calib_;
   RuntimeState state_ = RuntimeState::kIdle;
   bool scanning_ = false;       // return to MAPPING after a report
@@ -95,12 +85,7 @@ class Runtime : public ConsoleService {
   uint64_t next_heartbeat_us_ = 0;
   uint32_t result_seq_ = 0;
   uint32_t heartbeat_seq_ = 0;
-  link::Message msg_;           // the result being collected and reported (up to 32 objects)
-  // Heartbeats have their own buffer: sharing msg_ let a heartbeat that fell due in the tick that
-  // collected a result overwrite it (the body is a union) before kReport sent it, so a result
-  // went out with no objects although the pipeline had found some.
-  link::Message beat_;
-  link::FrameWriter writer_;
+  LocalizationOutcome result_;  // the result being collected and reported
   char text_[160] = {};         // reply messages that outlive a call
 };
 
