@@ -143,7 +143,8 @@ TEST(Localize, CorruptModelIsRejectedAtStartUp) {
 }
 
 // A cloud file with garbage coordinates (finite, far beyond any cell): those points are skipped
-// like non-finite ones, the rest is localised as before (UBSan found the int32 cell overflow).
+// like non-finite ones, and the rest is localised as without them (the int32 cell index must not
+// overflow: UBSan checks it).
 TEST(Localize, SceneSkipsPointsBeyondTheWorkspace) {
   Localizer loc;
   CHECK(loc.init(buffers()) == Status::kOk);

@@ -36,8 +36,8 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   out.pyramid_vertex = at(Region::kPyramidVertex);
   out.pyramid_normal = at(Region::kPyramidNormal);
   out.icp_rows = at(Region::kIcpRowSums);
-  out.trust_maps = static_cast<uint8_t*>(at(Region::kTrustMaps));  // multi-sensor fusion (issue 4)
-  // localisation (issue 5)
+  out.trust_maps = static_cast<uint8_t*>(at(Region::kTrustMaps));  // multi-sensor fusion
+  // localisation
   LocalizeBuffers& l = out.localize;
   l.models = static_cast<ModelInfo*>(at(Region::kLocModels));
   l.model_points = static_cast<OrientedPoint*>(at(Region::kLocModelPoints));
@@ -61,7 +61,7 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   l.scene_points_max = c.scene_points_max;
   l.hypotheses_max = c.hypotheses_max;
   l.objects_max = c.objects_max;
-  // acquisition frame pools (HAL, issue 6)
+  // acquisition frame pools (HAL)
   out.frame_pools.depth = static_cast<uint16_t*>(at(Region::kAcqDepth));
   out.frame_pools.colour = static_cast<Rgb8*>(at(Region::kAcqColour));
   out.frame_pools.amplitude = static_cast<uint16_t*>(at(Region::kAcqAmplitude));

@@ -9,7 +9,7 @@
 #include "edgefuse/core/image.hpp"
 #include "edgefuse/core/status.hpp"
 #include "edgefuse/math/pose.hpp"
-#include "edgefuse/localize/localizer.hpp"  // localisation (issue 5)
+#include "edgefuse/localize/localizer.hpp"  // localisation
 #include "edgefuse/memory/capacities.hpp"
 #include "edgefuse/tracking/icp.hpp"
 #include "edgefuse/tsdf/extract.hpp"
@@ -39,9 +39,9 @@ enum class Region : int {
   kPyramidVertex,   //!< tracking: the frame's vertex maps, all pyramid levels, per sensor
   kPyramidNormal,   //!< tracking: the frame's normal maps, all pyramid levels, per sensor
   kIcpRowSums,      //!< tracking: ICP per-row partial sums per sensor
-  // multi-sensor fusion (issue 4)
+  // multi-sensor fusion
   kTrustMaps,       //!< per-pixel trust (uint8, 1/255) from each sensor's noise model
-  // localisation (issue 5)
+  // localisation
   kLocModels,       //!< model descriptions
   kLocModelPoints,  //!< dense model samples
   kLocPpfPoints,    //!< sparse model samples (PPF)
@@ -60,7 +60,7 @@ enum class Region : int {
   kLocResults,      //!< the pose list
   // raycast speed work (perf2)
   kBlockMasks,      //!< per brick: which of its 64 blocks of 2^3 voxels hold a distance < +1
-  // acquisition frame pools (HAL, issue 6): kFramePoolSlots frames per sensor, filled by the
+  // acquisition frame pools (HAL): kFramePoolSlots frames per sensor, filled by the
   // device threads and handed to processing (hal/acquisition/frame_pool.hpp)
   kAcqDepth,        //!< pooled depth (uint16)
   kAcqColour,       //!< pooled registered colour
@@ -121,9 +121,9 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kPyramidVertex, "frame pyramid vertices", pyramid * sizeof(Point3<float>));
   set(Region::kPyramidNormal, "frame pyramid normals", pyramid * sizeof(Point3<float>));
   set(Region::kIcpRowSums, "icp row sums", uint64_t(c.image_height_max) * kIcpRowBytes * c.sensors_max);
-  // multi-sensor fusion (issue 4)
+  // multi-sensor fusion
   set(Region::kTrustMaps, "trust maps (uint8)", pixels * sizeof(uint8_t));
-  // localisation (issue 5)
+  // localisation
   const uint64_t mm = uint64_t(c.models_max);
   set(Region::kLocModels, "loc models", mm * sizeof(ModelInfo));
   set(Region::kLocModelPoints, "loc model samples", mm * c.model_points_max * sizeof(OrientedPoint));
@@ -144,7 +144,7 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kLocVerified, "loc verified hypotheses", mm * kClustersPerModel * sizeof(LocalizedObject));
   set(Region::kLocResults, "loc pose list", uint64_t(c.objects_max) * sizeof(LocalizedObject));
   set(Region::kBlockMasks, "brick block masks", bricks * sizeof(uint64_t));  // raycast speed work (perf2)
-  // acquisition frame pools (HAL, issue 6)
+  // acquisition frame pools (HAL)
   const uint64_t pooled = pixels * uint64_t(kFramePoolSlots);
   set(Region::kAcqDepth, "acquisition pools: depth", pooled * sizeof(uint16_t));
   set(Region::kAcqColour, "acquisition pools: colour", pooled * sizeof(Rgb8));
@@ -158,7 +158,7 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   return m;
 }
 
-//! The acquisition frame pools (HAL, issue 6): `pools` pools (one per sensor) of `slots` frames
+//! The acquisition frame pools (HAL): `pools` pools (one per sensor) of `slots` frames
 //! of up to `pixels_per_slot` pixels each, slot after slot, pool after pool.
 struct FramePoolBuffers {
   uint16_t* depth = nullptr;
@@ -194,8 +194,8 @@ struct CoreBuffers {
   void* pyramid_normal = nullptr;     //!< the same
   void* icp_rows = nullptr;           //!< IcpSums of either build, kIcpRowBytes per row
   uint8_t* trust_maps = nullptr;      //!< sensors_max trust maps of image_*_max (multi-sensor fusion)
-  LocalizeBuffers localize;           //!< localisation tables (issue 5)
-  FramePoolBuffers frame_pools;       //!< acquisition frame pools (HAL, issue 6)
+  LocalizeBuffers localize;           //!< localisation tables
+  FramePoolBuffers frame_pools;       //!< acquisition frame pools (HAL)
   ProfilePoolBuffers profile_pool;    //!< the line scanner's profile pool (edgefused4)
   std::size_t pixels_per_sensor = 0;  //!< stride between the sensors' images in each region
   std::size_t tiles_per_sensor = 0;   //!< stride between the sensors' tile arrays
