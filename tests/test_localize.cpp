@@ -360,7 +360,7 @@ TEST(Localize, SameResultsOnAnyThreadCount) {
   }
 }
 
-// localize3: the bin from configuration (floor pose + inner size) instead of detection. A second,
+// The bin from configuration (floor pose + inner size) instead of detection. A second,
 // identical box stands outside the configured bin: it must be removed with the bin (one pose only),
 // the box inside is found, nothing is allocated, and a bad geometry is refused.
 TEST(Localize, BinFromConfigurationRemovesWhatIsOutside) {

@@ -20,7 +20,7 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   out.voxels.colour_weight = static_cast<uint8_t*>(at(Region::kVoxelColourWeight));
   out.voxels.brick_flags = static_cast<uint8_t*>(at(Region::kBrickFlags));
   out.voxels.brick_list = static_cast<uint32_t*>(at(Region::kBrickList));
-  out.voxels.block_mask = static_cast<uint64_t*>(at(Region::kBlockMasks));  // raycast speed work (perf2)
+  out.voxels.block_mask = static_cast<uint64_t*>(at(Region::kBlockMasks));  // raycast: per-brick block masks
   out.voxels.capacity_dim = c.volume_dim;
   out.depth_frames = static_cast<uint16_t*>(at(Region::kDepthFrames));
   out.colour_frames = static_cast<Rgb8*>(at(Region::kColourFrames));
@@ -68,7 +68,7 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   out.frame_pools.pixels_per_slot = std::size_t(c.image_width_max) * std::size_t(c.image_height_max);
   out.frame_pools.slots = kFramePoolSlots;
   out.frame_pools.pools = c.sensors_max;
-  // line-scanner profile pool (edgefused4)
+  // line-scanner profile pool
   out.profile_pool.ranges_m = static_cast<float*>(at(Region::kAcqProfiles));
   out.profile_pool.beams_max = c.image_width_max;
   out.profile_pool.slots = kProfilePoolSlots;

@@ -58,14 +58,14 @@ enum class Region : int {
   kLocCandidates,   //!< pose candidates (vote peaks)
   kLocVerified,     //!< refined, verified hypotheses
   kLocResults,      //!< the pose list
-  // raycast speed work (perf2)
+  // raycast: per-brick block masks
   kBlockMasks,      //!< per brick: which of its 64 blocks of 2^3 voxels hold a distance < +1
   // acquisition frame pools (HAL): kFramePoolSlots frames per sensor, filled by the
   // device threads and handed to processing (hal/acquisition/frame_pool.hpp)
   kAcqDepth,        //!< pooled depth (uint16)
   kAcqColour,       //!< pooled registered colour
   kAcqAmplitude,    //!< pooled ToF amplitude (uint16)
-  // line-scanner profile pool (edgefused4): kProfilePoolSlots profiles of the line scanner's thread
+  // line-scanner profile pool: kProfilePoolSlots profiles of the line scanner's thread
   kAcqProfiles,     //!< pooled profile ranges (float)
   kCount
 };
@@ -84,7 +84,7 @@ inline constexpr std::size_t kRegionAlign = 64;  //!< every region starts on a c
 //! Frames in each sensor's acquisition pool: the device fills one, a stereo pairer holds up to
 //! three of a stream, processing one more, and one is in flight (hal/acquisition).
 inline constexpr int kFramePoolSlots = 6;
-// line-scanner profile pool (edgefused4): the profiles that wait between two main-loop ticks of
+// line-scanner profile pool: the profiles that wait between two main-loop ticks of
 // edgefused (15, the most the channel's 16-entry rings hold: 150 ms at 100 Hz), each of up to the
 // board's widest image in beams (a profile's ray table takes a sensor slot of image_width_max x
 // image_height_max entries, so no scanner the board can place has more beams).
@@ -138,18 +138,18 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kLocSample, "loc scene sample", uint64_t(c.scene_points_max) * sizeof(uint32_t));
   set(Region::kLocLabels, "loc labels", uint64_t(c.scene_points_max) * sizeof(int32_t));
   set(Region::kLocQueue, "loc queue", uint64_t(c.scene_points_max) * sizeof(uint32_t));
-  // localize3: one accumulator per vote chunk (parallel PPF voting)
+  // one accumulator per vote chunk (parallel PPF voting)
   set(Region::kLocVotes, "loc votes", uint64_t(kVoteAccumulators) * c.ppf_points_max * kPpfAngleBins * sizeof(uint16_t));
   set(Region::kLocCandidates, "loc pose candidates", uint64_t(c.hypotheses_max) * sizeof(PoseCandidate));
   set(Region::kLocVerified, "loc verified hypotheses", mm * kClustersPerModel * sizeof(LocalizedObject));
   set(Region::kLocResults, "loc pose list", uint64_t(c.objects_max) * sizeof(LocalizedObject));
-  set(Region::kBlockMasks, "brick block masks", bricks * sizeof(uint64_t));  // raycast speed work (perf2)
+  set(Region::kBlockMasks, "brick block masks", bricks * sizeof(uint64_t));  // raycast: per-brick block masks
   // acquisition frame pools (HAL)
   const uint64_t pooled = pixels * uint64_t(kFramePoolSlots);
   set(Region::kAcqDepth, "acquisition pools: depth", pooled * sizeof(uint16_t));
   set(Region::kAcqColour, "acquisition pools: colour", pooled * sizeof(Rgb8));
   set(Region::kAcqAmplitude, "acquisition pools: amplitude", pooled * sizeof(uint16_t));
-  // line-scanner profile pool (edgefused4)
+  // line-scanner profile pool
   set(Region::kAcqProfiles, "acquisition pools: line profiles",
       uint64_t(c.image_width_max) * uint64_t(kProfilePoolSlots) * sizeof(float));
   uint64_t total = 0;
@@ -169,7 +169,7 @@ struct FramePoolBuffers {
   int pools = 0;
 };
 
-//! The line scanner's profile pool (edgefused4): `slots` profiles of up to `beams_max` ranges each,
+//! The line scanner's profile pool: `slots` profiles of up to `beams_max` ranges each,
 //! slot after slot.
 struct ProfilePoolBuffers {
   float* ranges_m = nullptr;
@@ -196,7 +196,7 @@ struct CoreBuffers {
   uint8_t* trust_maps = nullptr;      //!< sensors_max trust maps of image_*_max (multi-sensor fusion)
   LocalizeBuffers localize;           //!< localisation tables
   FramePoolBuffers frame_pools;       //!< acquisition frame pools (HAL)
-  ProfilePoolBuffers profile_pool;    //!< the line scanner's profile pool (edgefused4)
+  ProfilePoolBuffers profile_pool;    //!< the line scanner's profile pool
   std::size_t pixels_per_sensor = 0;  //!< stride between the sensors' images in each region
   std::size_t tiles_per_sensor = 0;   //!< stride between the sensors' tile arrays
   std::size_t pyramid_points_per_sensor = 0;  //!< points of one sensor's pyramid map (all levels)
