@@ -238,7 +238,7 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   // Started at the true mounting: the mean of the frames' fits stays within a few mm / tenths of a
   // degree of it. One ToF frame scatters by ~3 mm per axis in x and y (up to 7 mm seen; z 0.5 mm),
   // so calib fuse averages kCalibFrames = 10 of them: 0.25-1.42 mm off in 30 runs, two at a time
-  // (with 5 frames 0.2-6.0 mm; a CI run failed the former 5 mm bound at 6.01 mm). The bound is
+  // (with 5 frames 0.2-6.0 mm: a fixed 5 mm bound fails there). The bound is
   // 4.5 sigma of the mean's distance (Rayleigh in x, y: exceeded once in ~20,000 commands) for
   // the frames a starved machine actually averaged, and 5 mm at 10 frames or more.
   CHECK_TRUE(r.frames >= 1);

@@ -222,7 +222,7 @@ TEST(Localize, SegmentsTwoBoxesAndAllocatesNothingWhileLocalising) {
   CHECK(loc.results()[0].T_world_object.R == p0.R);
 }
 
-// seg4: a box resting on a larger box, seen as one organised depth frame (as the mOSD Kinect clouds):
+// A box resting on a larger box, seen as one organised depth frame (as the mOSD Kinect clouds):
 // normals from image neighbours blend across the concave crease between the upper box's sides and the
 // lower box's top, and with depth noise plain region growing walks through it in small turns.
 // With the crease cut two segments, without it one.
