@@ -22,7 +22,7 @@ endfunction()
 function(edgefuse_require_board_keys prefix file)
   foreach(key capacity_volume_dim capacity_colour capacity_image_width_max capacity_image_height_max
               capacity_sensors_max capacity_points_max capacity_objects_max memory_ram_budget_mib fixed_point
-              # localisation (issue 5)
+              # localisation
               capacity_models_max capacity_model_points_max capacity_ppf_points_max capacity_scene_points_max
               capacity_hypotheses_max)
     if(NOT DEFINED ${prefix}_${key})
@@ -59,7 +59,7 @@ function(edgefuse_generate_board_config root build_board out)
       "${B_capacity_image_width_max}, ${B_capacity_image_height_max}, ${B_capacity_sensors_max}, "
       "${B_capacity_points_max}u, ${B_capacity_objects_max}, uint64_t(${B_memory_ram_budget_mib}) << 20, "
       "${B_fixed_point}, "
-      # localisation (issue 5)
+      # localisation
       "${B_capacity_models_max}, ${B_capacity_model_points_max}u, ${B_capacity_ppf_points_max}u, "
       "${B_capacity_scene_points_max}u, ${B_capacity_hypotheses_max}u},\n")
     if(name STREQUAL build_board)

@@ -1,5 +1,4 @@
-# Helpers shared by the ctest scripts that drive the edgefuse CLI on a rig set (fusion3_cli.cmake,
-# fusion4_cli.cmake, fusion5_cli.cmake).
+# Helpers shared by the ctest scripts that drive the edgefuse CLI on a rig set (fusion_*_cli.cmake).
 
 # Skips the test when the rig set is missing, else empties the scratch folder WORK. A macro, not a
 # function: its return() leaves the calling script (a return() in an included file or a function

@@ -226,9 +226,9 @@ if failures:
 # --- tracked poses: the same replay, poses by ICP tracking against the raycast model (from the first
 # frame's known pose), every frame pushed. Measured: tracking 0.4-0.5 mm from the truth at the last
 # frame; all six objects within 5 mm / 5 deg. Required: no lost frame, all six, no false positive.
-# (Until session 9 box 3, in the bin's corner, was missed with the tracked map, and a raycast
-# rounding change of 1e-7 m let a bracket claim its place; the localiser's recheck round,
-# LocalizeParams::recheck_score, now finds the box there in the float and the Q16.16 build.)
+# (Box 3, in the bin's corner, is the knife edge of the tracked map: without the localiser's recheck
+# round, LocalizeParams::recheck_score, it is missed, and a raycast rounding change of 1e-7 m lets a
+# bracket claim its place; with it the box is found in the float and the Q16.16 build.)
 # Played at quarter speed: tracking (raycast + ICP) takes a good part of the 200 ms frame period on a
 # loaded 2-core machine, and with the newest-frame policy a late frame is dropped, which changes
 # the map (measured: 2 of 20 frames dropped under load lost the can).
@@ -281,9 +281,9 @@ else:
 # to 6 mm, for the upright bracket 5).
 # Well-posed by construction: the sim's solids keep at least 9.7 mm apart (can 1 and cylinder 4
 # are the closest pair, as in the real meshes: 11.3 mm), about twice the segmentation's 5 mm
-# neighbour radius. Until session 3 the can's stand-in touched the cylinder and dug 16 mm into the
-# floor, and which frames entered the map (each camera renders on its own thread; frames are
-# dropped under load) decided whether the two came out as one segment: a flaky check.
+# neighbour radius. Solids that touch (a can stand-in touching the cylinder, dug 16 mm into the
+# floor) would make the check flaky: which frames enter the map (each camera renders on its own
+# thread; frames are dropped under load) would decide whether the two come out as one segment.
 # Object 5, the upright bracket, is not required here either (as in the replay checks): from 0.7 m
 # above, the xtion sees of it the 5 x 30 mm top edge of its vertical 80 mm plate, the plate's faces
 # almost edge-on, and its flange lying 5 mm high, 1 mm above the bin removal's 4 mm floor band.

@@ -769,7 +769,7 @@ void fill_plane_with_weak_patch() {
 }
 }  // namespace
 
-// Fusion round 4: the support rule. A plane filled with weight 8, except a patch of columns whose
+// The support rule of multi-sensor fusion. A plane filled with weight 8, except a patch of columns whose
 // voxels hold 3 units (e.g. three ToF samples); with min_weight 4 the patch's crossings go and
 // every other crossing stays, identical; min_weight 0 and 1 are the plain extraction.
 TEST(ExtractPoints, MinWeightSupportRule) {
@@ -795,7 +795,7 @@ TEST(ExtractPoints, MinWeightSupportRule) {
   LONGS_EQUAL(0, n9);
 }
 
-// Fusion round 5: the same support rule for marching cubes. The plane of MinWeightSupportRule with
+// The same support rule for marching cubes. The plane of MinWeightSupportRule with
 // its 3-unit patch: at min_weight 4 every cell with a corner in a patch column goes (11 x 6 cells:
 // the patch's 10 x 5 columns and the cells reaching into them from -x and -y), the mesh's vertices
 // are exactly the points extract_points keeps under the same rule, and the rest is the plain mesh.

@@ -23,7 +23,7 @@ io::PointCloud test_cloud(std::size_t n, bool attrs) {
     c.normals.emplace_back(0.0f, 0.6f, 0.8f);
     c.colours.push_back(Rgba8{uint8_t(i), uint8_t(2 * i), uint8_t(255 - i), uint8_t(i % 2 ? 255 : 0)});
     c.labels.push_back(uint32_t(i * 1000003u));
-    c.support.push_back(uint8_t(i * 7 % 256));  // fusion5: per-point evidence
+    c.support.push_back(uint8_t(i * 7 % 256));  // per-point evidence of fusion
   }
   if (n > 3) c.points[3] = Vec3f(std::numeric_limits<float>::quiet_NaN(), 0, 0);
   return c;

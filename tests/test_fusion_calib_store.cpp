@@ -1,4 +1,4 @@
-// `edgefuse calibrate --store DIR` (issue 4 item 4, "store it through the calibration store"):
+// `edgefuse calibrate --store DIR` (the calibrated mounting goes into the calibration store):
 // store_calibrated_pair() puts T_A_B into the two-slot store, keeps what the newest slot already
 // holds (other pairs, intrinsic overrides, hand-eye, bin pose), alternates slots with increasing
 // sequence numbers, replaces an existing pair instead of adding a second one, survives one corrupt

@@ -362,7 +362,7 @@ float biased_then_exact(const Scene& scene, float trust) {
 }
 }  // namespace
 
-// Trust above 1 (issue 4 item 3, "how much do I trust a certain sensor"): a 20 um scanner is ~50x
+// Trust above 1: a 20 um scanner is ~50x
 // finer than sigma_ref, so its samples must outweigh a camera's average where it measured. With
 // trust capped at 1 the exact sweep moves the 1 mm-off surface by ~1/6 only; at kProfileTrustMax
 // (255 weight units a sample) it lands within 0.25 mm (float and Q16.16); beyond it is refused.

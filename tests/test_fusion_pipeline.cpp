@@ -130,7 +130,7 @@ std::unique_ptr<wire::FusionPipeline> fusing_pipeline(const char* fuse) {
 }
 }  // namespace
 
-// Faults at the camera (issue 6 item 10 in edgefused): the acquisition thread recovers a stall by
+// Faults at the camera in edgefused: the acquisition thread recovers a stall by
 // reopening, rejects a garbage frame with a counted reason, waits out an unplug; tracking pauses
 // meanwhile and the map is kept (frames go on adding to it afterwards).
 TEST(FusionPipeline, CameraFaultsKeepTheMap) {
@@ -200,15 +200,15 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   CHECK_TRUE(step_frames(*p, 10));
   // A ToF frame enters the map only when it pairs with an xtion frame (40 ms window); a starved
   // ToF worker (load ~10 on 2 cores) can miss the first pairings, so give it up to 150 more frames
-  // (30 were not enough for the host-fixed build at load ~5 in session 6; the loop ends as soon as
-  // two ToF frames are in).
+  // (30 are not enough for the host-fixed build at load ~5; the loop ends as soon as two ToF
+  // frames are in).
   for (int extra = 0; extra < 150 && p->camera_stream(1).integrated < 2; ++extra) CHECK_TRUE(step_frames(*p, 1));
   CHECK_EQUAL(0L, edgefuse_test::alloc_count());
   CHECK_TRUE(p->camera_stream(1).integrated >= 2);
-  // fusion5: the map takes the rules of `edgefuse fuse --sensors` (fusion_rules.hpp): each fused
-  // frame's median noise sets its depth-jump limit, and a set mixing the ToF's sub-unit samples
-  // with the xtion's extracts with the evidence rule (support 9). fusion5b: such a set fills sub-unit
-  // samples only to 3 units, so its support rule is 4 again (fusion_rules.hpp rule 3).
+  // The map takes the rules of `edgefuse fuse --sensors` (fusion_rules.hpp): each fused frame's
+  // median noise sets its depth-jump limit, and a set mixing the ToF's sub-unit samples with the
+  // xtion's fills sub-unit samples only to 3 units, so its support rule is 4 (rule 3), not the
+  // evidence rule's 9.
   CHECK_TRUE(p->camera_stream(0).slot.sigma.frames >= 2 && p->camera_stream(1).slot.sigma.frames >= 2);
   const float sigma_ref_m = 0.5f * wire::FusionPipelineConfig().voxel_m;  // the pipeline's trust reference
   CHECK_FALSE(sub_unit_sensor(p->camera_stream(0).slot.median_sigma(), sigma_ref_m));
@@ -238,7 +238,7 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   // Started at the true mounting: the mean of the frames' fits stays within a few mm / tenths of a
   // degree of it. One ToF frame scatters by ~3 mm per axis in x and y (up to 7 mm seen; z 0.5 mm),
   // so calib fuse averages kCalibFrames = 10 of them: 0.25-1.42 mm off in 30 runs, two at a time
-  // (with 5 frames 0.2-6.0 mm; a CI run failed the former 5 mm bound at 6.01 mm). The bound is
+  // (with 5 frames 0.2-6.0 mm: a fixed 5 mm bound fails there). The bound is
   // 4.5 sigma of the mean's distance (Rayleigh in x, y: exceeded once in ~20,000 commands) for
   // the frames a starved machine actually averaged, and 5 mm at 10 frames or more.
   CHECK_TRUE(r.frames >= 1);
@@ -323,7 +323,7 @@ TEST(FusionPipeline, LineScannerFeedsTheMap) {
   CHECK_TRUE(step_frames(*p, 5));
   CHECK_EQUAL(0L, edgefuse_test::alloc_count());
   CHECK_TRUE(p->scanner_stream().integrated > before + 10);
-  LONGS_EQUAL(kMinSupportWeight, p->map_support_weight());  // fusion5: one camera (+ scanner): support 4
+  LONGS_EQUAL(kMinSupportWeight, p->map_support_weight());  // one camera (+ scanner): support 4
   const std::string status = p->device_state(2);
   CHECK_TRUE_TEXT(status.find("streaming (map) profiles") == 0, status.c_str());
   p->stop_mapping();

@@ -412,7 +412,7 @@ TEST(HalAcquisition, FramePoolsLiveInTheBoardMemoryMap) {
   CHECK_EQUAL(5, checked);
 }
 
-// edgefused4: the line scanner's profile pool is a memory-map region too.
+// The line scanner's profile pool is a memory-map region too.
 TEST(HalAcquisition, ProfilePoolLivesInTheBoardMemoryMap) {
   CoreBuffers buf;
   CHECK(carve_memory(build_board(), static_arena(), static_arena_bytes(), buf) == Status::kOk);

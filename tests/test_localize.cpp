@@ -143,7 +143,8 @@ TEST(Localize, CorruptModelIsRejectedAtStartUp) {
 }
 
 // A cloud file with garbage coordinates (finite, far beyond any cell): those points are skipped
-// like non-finite ones, the rest is localised as before (UBSan found the int32 cell overflow).
+// like non-finite ones, and the rest is localised as without them (the int32 cell index must not
+// overflow: UBSan checks it).
 TEST(Localize, SceneSkipsPointsBeyondTheWorkspace) {
   Localizer loc;
   CHECK(loc.init(buffers()) == Status::kOk);
@@ -221,7 +222,7 @@ TEST(Localize, SegmentsTwoBoxesAndAllocatesNothingWhileLocalising) {
   CHECK(loc.results()[0].T_world_object.R == p0.R);
 }
 
-// seg4: a box resting on a larger box, seen as one organised depth frame (as the mOSD Kinect clouds):
+// A box resting on a larger box, seen as one organised depth frame (as the mOSD Kinect clouds):
 // normals from image neighbours blend across the concave crease between the upper box's sides and the
 // lower box's top, and with depth noise plain region growing walks through it in small turns.
 // With the crease cut two segments, without it one.
@@ -359,7 +360,7 @@ TEST(Localize, SameResultsOnAnyThreadCount) {
   }
 }
 
-// localize3: the bin from configuration (floor pose + inner size) instead of detection. A second,
+// The bin from configuration (floor pose + inner size) instead of detection. A second,
 // identical box stands outside the configured bin: it must be removed with the bin (one pose only),
 // the box inside is found, nothing is allocated, and a bad geometry is refused.
 TEST(Localize, BinFromConfigurationRemovesWhatIsOutside) {

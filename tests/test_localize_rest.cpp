@@ -1,4 +1,4 @@
-// Rest-pose hypotheses (feat/ppf4): the stable resting faces found at start-up, and an L-bracket
+// Rest-pose hypotheses: the stable resting faces found at start-up, and an L-bracket
 // standing upright on its flange back, seen from above by a structured-light-like camera (no depth
 // beyond 75 deg incidence), so only the plate's 5 mm top edge and the flange top 5 mm above the
 // floor are in the scene: the pose comes from the rest-pose round, deterministic and without heap.

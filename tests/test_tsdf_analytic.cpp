@@ -325,8 +325,8 @@ TEST(TsdfAnalytic, FixedPointRaycastIsWithinAQuarterVoxelOfFloat) {
   CHECK(differing_values < observed / 100);
 }
 
-// Raycast speed work (perf2): integration keeps a mask per surface brick of the 2^3-voxel blocks
-// holding an observed distance at or below 0 (below +1 until session 6), and the raycast bounds
+// Block masks: integration keeps a mask per surface brick of the 2^3-voxel blocks
+// holding an observed distance at or below 0, and the raycast bounds
 // each pixel's search by the marked blocks only. The mask must be exact, and the raycast must find the same surface with it
 // as with whole-brick bounds (a volume without mask storage).
 TEST(TsdfAnalytic, BlockMasksMarkTheBlocksAtOrBehindTheSurfaceAndLeaveTheRaycastUnchanged) {
@@ -375,7 +375,7 @@ TEST(TsdfAnalytic, BlockMasksMarkTheBlocksAtOrBehindTheSurfaceAndLeaveTheRaycast
   }
 }
 
-// Raycast bounds, round 5 (src/tsdf/raycast_bounds.hpp): prepare_raycast leaves in each pixel of
+// Raycast bounds (src/tsdf/raycast_bounds.hpp): prepare_raycast leaves in each pixel of
 // the depth map the z range its ray is marched over, from the marked 2^3 blocks' front and back
 // faces. Every trustworthy surface pixel must be covered, its true depth inside the range (the
 // zero crossing of the trilinear field lies within 0.1 voxel of the truth, as the raycast tests
@@ -428,7 +428,7 @@ TEST(TsdfAnalytic, PerPixelBoundsHoldEveryTrueSurfaceAndStartNearIt) {
   }
 }
 
-// Splat round 6: raycast_bounds::dilate() filters only between each row's first and last covered
+// Splat widening: raycast_bounds::dilate() filters only between each row's first and last covered
 // pixels (found 8 bytes at a time from both ends) and the column pass only over their box. It
 // must still equal the plain 5x5 min filter of both halves (beyond the image: nothing), on
 // images of odd and even sizes (down to 1x1) and from empty to full.
@@ -515,7 +515,7 @@ TEST(TsdfAnalytic, BoundsRectMergeTouchesExactlyItsRect) {
   LONGS_EQUAL(2000, aligned_runs);  // the 16-pixel rows, not the 13-pixel ones
 }
 
-// Round 7 (cube bounds): a block's bound is the sensor-axis box of its crossing cube (half-size
+// Cube bounds: a block's bound is the sensor-axis box of its crossing cube (half-size
 // 1.5 voxels along world axes around the block centre), written by centres() (4 blocks per
 // vector, bricks of small footprints, shrunk by kDilate and widened by dilate()) or
 // footprints(). Conservative means: a pixel whose ray passes through a front (back) block's cube

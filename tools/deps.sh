@@ -9,10 +9,10 @@ PACKAGES=(
   libeigen3-dev libcpputest-dev cpputest libpng-dev libtomlplusplus-dev liblzf-dev
   g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
   python3 python3-numpy
-  # pose link (issue 7, feat/link): nanopb generator + runtime, protoc and Python protobuf for
+  # pose link: nanopb generator + runtime, protoc and Python protobuf for
   # tools/listen.py and its tests
   nanopb libnanopb-dev protobuf-compiler python3-protobuf
-  # HAL device backends (issue 6): OpenNI2 (with its Dummy test device), libgpiod 1.6, libusb 1.0;
+  # HAL device backends: OpenNI2 (with its Dummy test device), libgpiod 1.6, libusb 1.0;
   # V4L2 needs only linux/videodev2.h (linux-libc-dev, with the compiler).
   libopenni2-dev libgpiod-dev libusb-1.0-0-dev
 )

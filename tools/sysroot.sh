@@ -23,9 +23,9 @@ esac
 # Library packages are listed explicitly with their -dev packages: `apt-get download` does not
 # follow dependencies. libtomlplusplus-dev is only for its headers (used header-only).
 PACKAGES=(libcpputest-dev libpng-dev libpng16-16 zlib1g-dev zlib1g liblzf-dev liblzf1 libtomlplusplus-dev
-  # pose link (issue 7, feat/link): the nanopb runtime (static library; the generator runs on the host)
+  # pose link: the nanopb runtime (static library; the generator runs on the host)
   libnanopb-dev)
-# HAL device backends (issue 6): libgpiod (static), libusb (static, needs the shared libudev at run
+# HAL device backends: libgpiod (static), libusb (static, needs the shared libudev at run
 # time), OpenNI2 (shared only, with its drivers incl. the Dummy test device). The ARM HAL tests
 # find the shared ones through LD_LIBRARY_PATH=<sysroot>/usr/lib/<triplet> (tests/CMakeLists.txt).
 PACKAGES+=(libgpiod-dev libgpiod2 libusb-1.0-0-dev libusb-1.0-0 libudev1 libopenni2-dev libopenni2-0 libjpeg62-turbo)

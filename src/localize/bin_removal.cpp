@@ -67,7 +67,7 @@ Status Localizer::remove_bin(const LocalizeParams& params) {
   // planes): with the floor a fifth of the surface (a fused xtion + tof + laser map of bin_rig_a:
   // 19 %) a floor triple comes up 1.4 times per 200 draws on average, and in about a quarter of
   // the maps never (edgefused's live map of the three sensors: "floor not found", walls matched).
-  // Maps whose floor the first 200 draws find are treated exactly as before.
+  // A map whose floor the first 200 draws find stops there, as the dominant-plane check allows.
   int scored = 0;
   for (int draw = 0; draw < 20000 && scored < 400; ++draw) {
     if (draw >= 200 && best_count * stride >= n / 10) break;

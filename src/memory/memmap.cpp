@@ -20,7 +20,7 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   out.voxels.colour_weight = static_cast<uint8_t*>(at(Region::kVoxelColourWeight));
   out.voxels.brick_flags = static_cast<uint8_t*>(at(Region::kBrickFlags));
   out.voxels.brick_list = static_cast<uint32_t*>(at(Region::kBrickList));
-  out.voxels.block_mask = static_cast<uint64_t*>(at(Region::kBlockMasks));  // raycast speed work (perf2)
+  out.voxels.block_mask = static_cast<uint64_t*>(at(Region::kBlockMasks));  // raycast: per-brick block masks
   out.voxels.capacity_dim = c.volume_dim;
   out.depth_frames = static_cast<uint16_t*>(at(Region::kDepthFrames));
   out.colour_frames = static_cast<Rgb8*>(at(Region::kColourFrames));
@@ -36,8 +36,8 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   out.pyramid_vertex = at(Region::kPyramidVertex);
   out.pyramid_normal = at(Region::kPyramidNormal);
   out.icp_rows = at(Region::kIcpRowSums);
-  out.trust_maps = static_cast<uint8_t*>(at(Region::kTrustMaps));  // multi-sensor fusion (issue 4)
-  // localisation (issue 5)
+  out.trust_maps = static_cast<uint8_t*>(at(Region::kTrustMaps));  // multi-sensor fusion
+  // localisation
   LocalizeBuffers& l = out.localize;
   l.models = static_cast<ModelInfo*>(at(Region::kLocModels));
   l.model_points = static_cast<OrientedPoint*>(at(Region::kLocModelPoints));
@@ -61,14 +61,14 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   l.scene_points_max = c.scene_points_max;
   l.hypotheses_max = c.hypotheses_max;
   l.objects_max = c.objects_max;
-  // acquisition frame pools (HAL, issue 6)
+  // acquisition frame pools (HAL)
   out.frame_pools.depth = static_cast<uint16_t*>(at(Region::kAcqDepth));
   out.frame_pools.colour = static_cast<Rgb8*>(at(Region::kAcqColour));
   out.frame_pools.amplitude = static_cast<uint16_t*>(at(Region::kAcqAmplitude));
   out.frame_pools.pixels_per_slot = std::size_t(c.image_width_max) * std::size_t(c.image_height_max);
   out.frame_pools.slots = kFramePoolSlots;
   out.frame_pools.pools = c.sensors_max;
-  // line-scanner profile pool (edgefused4)
+  // line-scanner profile pool
   out.profile_pool.ranges_m = static_cast<float*>(at(Region::kAcqProfiles));
   out.profile_pool.beams_max = c.image_width_max;
   out.profile_pool.slots = kProfilePoolSlots;

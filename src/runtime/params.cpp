@@ -36,7 +36,7 @@ const ParamDef kParamDefs[kParamCount] = {
      "host-sim: replay this rig set instead of the built-in scene"},
     {"tsdf.voxel_m", ParamType::kFloat, 0.0005, 0.05, "0.002", false, "voxel edge length"},
     {"tsdf.trunc_m", ParamType::kFloat, 0.001, 0.2, "0.008", false, "truncation distance"},
-    // real pipeline in edgefused (issue 7 wiring, feat/wire)
+    // edgefused's pipeline: frame source, models, filters, tracking
     {"pipeline.source", ParamType::kString, 0, kParamTextMax, "fusion", false,
      "'fusion' (HAL frames -> filters -> TSDF -> localisation) or 'simulated' (fixed test poses)"},
     {"localize.models", ParamType::kString, 0, kParamTextMax, "", false,
@@ -48,7 +48,7 @@ const ParamDef kParamDefs[kParamCount] = {
      "poses) or 'tracked' (ICP against the raycast model)"},
     {"tracking.push_every_frame", ParamType::kBool, 0, 1, "false", false,
      "tracked: integrate every frame (else when the sensor moved 1 cm or 1 degree)"},
-    // edgefused: every sensor feeds the map (issue 7, feat/edgefused3)
+    // edgefused: which cameras feed the map
     {"sensors.fuse", ParamType::kString, 0, kParamTextMax, "", false,
      "cameras feeding the map, e.g. 'xtion,tof' (the first is the reference whose poses are known or tracked); "
      "'' : hal.toml's first camera"},

@@ -1,9 +1,9 @@
 // The per-brick block mask (VoxelStorage::block_mask): which 2^3-voxel blocks of a brick hold an
 // observed distance at or below 0 (on or behind a surface). The raycast projects only those blocks
 // to bound each pixel's search: rays that would cross a surface brick without meeting its surface
-// then start nowhere, and the others start a few voxels before their crossing. (Until session 6
-// the mask marked every distance below +1, i.e. the whole positive band as well: rays then started
-// ~12 voxels before their hit instead of ~4-6; raycast -15-20 % thread CPU on bin_rig_a xtion.)
+// then start nowhere, and the others start a few voxels before their crossing. (Marking every
+// distance below +1, i.e. the whole positive band as well, makes rays start ~12 voxels before their
+// hit instead of ~4-6: raycast +15-20 % thread CPU on bin_rig_a xtion.)
 // Integration recomputes a brick's mask whenever it writes the brick's distances. Private to src/.
 #pragma once
 

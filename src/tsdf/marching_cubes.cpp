@@ -17,7 +17,7 @@
 // (0, 1, 2, ... in call order), so an older id is left over from two layers back. (A sink
 // returning other ids costs vertex sharing, never memory safety.)
 //
-// Support rule (min_weight > 1; fusion round 5, the rule of extract_points): a cell is polygonised
+// Support rule (min_weight > 1; the rule of extract_points): a cell is polygonised
 // only when both voxels of every one of its crossing edges hold at least min_weight. The whole
 // cell goes, not single triangles, so the mesh keeps its topology (a boundary where evidence ends)
 // and every vertex is a crossing the point cloud of the same rule also holds.

@@ -299,11 +299,11 @@ class RayMarcher {
         // cells in front of surfaces) steps half a truncation: from this start it lands at most a
         // quarter voxel past the near bound, where crossings are rare (they lie within a voxel of
         // a marked voxel, itself within half a voxel of its block's centre, and the bound is the
-        // block's cube 1.5 voxels in front of that centre). Round 7 (cube bounds) measured at
-        // trunc = 4 voxels: margin 1 voxel lost 0.9 % of bin_rig_a xtion's hits against round 6
-        // (7,981 / 1,999 pixels in one bench run), 1.5 and 1.75 voxels none (docs/BENCHMARKS.md,
-        // round 7; 1.75 because 1.5 tipped test_edgefused_fusion_e2e's knife-edge tracked can in
-        // the fixed-point build).
+        // block's cube 1.5 voxels in front of that centre). Measured with cube bounds at
+        // trunc = 4 voxels: a margin of 1 voxel lost 0.9 % of bin_rig_a xtion's hits against the
+        // sphere bounds (7,981 / 1,999 pixels in one bench run), 1.5 and 1.75 voxels none
+        // (docs/BENCHMARKS.md); 1.75 because 1.5 tipped test_edgefused_fusion_e2e's knife-edge
+        // tracked can in the fixed-point build.
         margin_(real_from<Real>(std::max(volume.voxel_m(), 0.5f * volume.params().trunc_m - 0.25f * volume.voxel_m()))),
         want_vertex_(!maps.vertex.empty()), want_normal_(!maps.normal.empty()), clear_colour_(!maps.colour.empty()),
         want_colour_(!maps.colour.empty() && volume.has_colour()) {

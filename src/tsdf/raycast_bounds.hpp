@@ -1,4 +1,4 @@
-// Per-pixel march bounds of the raycast (speed work, round 5): prepare_raycast projects the
+// Per-pixel march bounds of the raycast: prepare_raycast projects the
 // marked 2^3 blocks (block_mask.hpp) into the image and keeps, for each pixel, the z-depth range
 // in which its ray can meet a zero crossing. A ray then starts a few voxels before its own
 // surface and stops a few voxels behind it; a pixel that no marked block covers is not marched.
@@ -9,8 +9,8 @@
 // which RayMarcher::start reads before it clears the pixel. Negating the far z makes both halves
 // minima, so merging a block into a pixel, and widening the bounds (dilate), are element-wise
 // minima over int16s.
-// Round 7 (feat/cube7): blocks bound by their crossing cube's box instead of its sphere, and a
-// 3x3 instead of a 5x5 widening (kDilate): fewer pixels marched in vain, rays start closer.
+// A block is bounded by its crossing cube's box (not its sphere), and footprints are widened by
+// 3x3 (kDilate): fewer pixels marched in vain, rays start closer.
 // Private to src/.
 #pragma once
 
@@ -152,8 +152,8 @@ inline bool read(const float& pixel, const Quant& q, float& near_m, float& far_m
 
 // Footprints are written shrunk by kDilate pixels on every side (one pixel when they are at most
 // 2 kDilate + 1 wide), and one min filter over the image widens them all back: ~25 pixel writes
-// per block become a few, plus 2 (2 kDilate + 1) vector minima per pixel. Round 7 (cube bounds)
-// took kDilate from 2 to 1: a footprint narrower than 2 kDilate + 1 pixels is widened to that
+// per block become a few, plus 2 (2 kDilate + 1) vector minima per pixel. kDilate is 1, not 2: a
+// footprint narrower than 2 kDilate + 1 pixels is widened to that
 // square anyway, and at 2 mm voxels from ~0.6 m (fx ~ 290 px) most block footprints are 3-5
 // pixels wide: 5x5 squares covered pixels whose rays then marched without a hit.
 inline constexpr int kDilate = 1;
@@ -244,9 +244,9 @@ inline void dilate(const ImageView<float>& depth) {
 
 // How far a zero crossing can lie from a marked block's centre: the block's voxel centres are
 // within half a voxel of it on each axis, and a crossing lies in a cell with a marked corner, i.e.
-// within one more voxel on each axis: a world-axis-aligned cube of half-size 1.5 voxels. Until
-// round 7 the splat bounded it by its sphere (radius 2.6 voxels); since then by the cube's own
-// extent along each sensor axis (Splatter::ext_), 1.5 to 2.6 voxels depending on the view.
+// within one more voxel on each axis: a world-axis-aligned cube of half-size 1.5 voxels. The splat
+// bounds it by the cube's own extent along each sensor axis (Splatter::ext_), 1.5 to 2.6 voxels
+// depending on the view, which is tighter than its bounding sphere (radius 2.6 voxels).
 inline constexpr float kCubeHalfVoxels = 1.5f;
 
 // Masks of a brick's 4x4x4 blocks (bit z*16 + y*4 + x) on its faces.

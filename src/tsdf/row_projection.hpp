@@ -7,9 +7,9 @@
 // extensions: SSE2 on x86-64, NEON on aarch64; lowered to scalar code where neither exists) and
 // the fixed-point build lane by lane (Q16.16 has no vector unit to map to).
 //
-// Both give exactly what the former scalar loops computed: the points come from the same
-// additions in the same order (a row: p, p + s, (p + s) + s, ...), and each lane runs the same
-// IEEE (or Q16.16) operations as before, so the stored volume is bit-identical.
+// Both give exactly what a scalar loop computes: the points come from the same additions in the
+// same order (a row: p, p + s, (p + s) + s, ...), and each lane runs the same IEEE (or Q16.16)
+// operations as the scalar voxel update, so the stored volume is bit-identical.
 #pragma once
 
 #include <cstdint>
@@ -114,7 +114,7 @@ inline unsigned project_row(const LaneCamera<float>& cam, const float p0[3], con
   // floor(x) from the nearest pixel i = int(x + 0.5), which is floor(x) or floor(x) + 1 for a
   // live lane (x >= -0.5): one less when x < i. The same integers as floor_int, per lane in the
   // vector instead of two conversions and a compare per voxel in the bilinear lookup. (A scalar
-  // select `i - (x < i)` was compiled as a branch, round 5.)
+  // select `i - (x < i)` is compiled as a branch.)
   const I4 below_u = pu < iu_f, below_v = pv < iv_f;  // lanes 0 or -1
   const I4 u0 = iu + below_u, v0 = iv + below_v;
   const I4 win = pix + below_u - (below_v & I4{cam.stride, cam.stride, cam.stride, cam.stride});
@@ -223,7 +223,7 @@ inline bool project_box(const LaneCamera<float>& cam, const float c0[3], const f
   const F4 v_a = cam.fy * (lo[1] * inv_lo) + cam.cy, v_b = cam.fy * (hi[1] * inv_hi) + cam.cy;
   // Lane-wise minimum / maximum of the two groups, then across the lanes by two shuffles each
   // (order-free: min and max of the same values are the same values; the corners are finite, in
-  // front of the sensor). The image bounds are clamped to +-2^20 as before.
+  // front of the sensor). The image bounds are clamped to +-2^20, as in the scalar path.
   const F4 z_min = lo[2] < hi[2] ? lo[2] : hi[2], z_max = lo[2] > hi[2] ? lo[2] : hi[2];
   const F4 u_min = u_a < u_b ? u_a : u_b, u_max = u_a > u_b ? u_a : u_b;
   const F4 v_min = v_a < v_b ? v_a : v_b, v_max = v_a > v_b ? v_a : v_b;

@@ -40,7 +40,7 @@ inline uint8_t cap_weight(int32_t w, uint8_t max_weight) { return uint8_t(w > ma
 //     several times its share against the better sensor's samples (rounding to nearest).
 // fill_units (DepthFrame::sub_unit_fill_units) is where the first case stops: 8 (one full
 // sample) by default; a mixed set (fusion_rules.hpp) lowers it below the support rule's 4 so that
-// a voxel seen only by sub-unit samples never passes as half a full sample (round 5b).
+// a voxel seen only by sub-unit samples never passes as half a full sample.
 inline int32_t scale_by_trust(int32_t w, uint32_t trust_255, int32_t old_weight, int32_t fill_units = 8) {
   if (trust_255 >= 255u) return w;
   if (trust_255 == 0u) return 0;

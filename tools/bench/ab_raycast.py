@@ -8,8 +8,8 @@ the final volume, and prints every pair, both medians, the median of the per-pai
 how many pairs B was faster. Two binaries of the same code gave 1.021 (B faster in 2 of 10
 pairs) in alternating order and 0.967 (7 of 10) when A always ran first: read a change as real
 only when the ratio is clearly outside that (below ~0.96 with most pairs agreeing). Instruction
-counts (callgrind) are the repeatable complement, but session 8 found -11 % instructions with no
-measurable time effect (docs/BENCHMARKS.md, round 8).
+counts (callgrind) are the repeatable complement, but a change of -11 % instructions has been
+measured with no time effect (docs/BENCHMARKS.md).
 
   /usr/bin/python3 tools/bench/ab_raycast.py BIN_A BIN_B [--pairs 10] [--reps 6]
       [--data ../shared/data/bin_rig_a] [--sensor xtion] [-- extra bench arguments]

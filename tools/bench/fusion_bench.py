@@ -1,22 +1,17 @@
 #!/usr/bin/python3
-"""Multi-sensor fusion accuracy on a rig set (issue 4, item 7), in one run.
+"""Multi-sensor fusion accuracy on a rig set, in one run.
 
 1. Calibration: `edgefuse calibrate RIGSET --from xtion --to tof --frames N` (start: identity, i.e.
    no hand-measured guess); its T_xtion_tof is compared with extrinsics.txt (translation in mm,
    rotation angle in degrees); the same with `--mode maps` (each sensor maps alone, the maps are
    aligned).
 2. Clouds: `edgefuse fuse RIGSET --sensors S --origin O --out S.ply` for S = xtion, tof, laser
-   alone (the ToF with and without its bilateral filter; xtion and ToF also with round 3's rules,
-   `--min-support 0 --jump-sigmas 0`; round 5: the xtion also with the fused default's evidence rule
-   `--min-support 9`, like for like), xtion+laser, xtion+tof+laser (round 5b's default: sub-unit fill 3,
-   support 4; `--sub-unit-fill 8`: round 5's default, the evidence rule, support 9;
-   `--full-coverage`: round 4's fill 8, support 4; round 3's rules, each round-4 rule alone,
-   support 3 instead of 4; defaults: true
-   extrinsics, no noise gate; --extrinsics calibrated; noise gate 4 and 6 mm; the ToF's bilateral
-   filter on, as in round 2; equal weights; the scanner's poses 2.7 mm off, without and with --register-laser;
-   --register-laser on the exact poses); all in the same volume (same --origin, the board's voxel
-   size). Like for like: the fused points within 2 mm of the xtion-alone cloud and within 1 mm of
-   the laser-alone cloud.
+   alone, xtion+laser and xtion+tof+laser (true extrinsics; --extrinsics calibrated; noise gate 4
+   and 6 mm; equal weights (--no-trust); --register-laser on the exact scanner poses, and on a copy
+   of the set whose scanner poses are 2.7 mm off (scanner_offset_rig.py), without and with
+   --register-laser); all in the same volume (same --origin, the board's voxel size). Like for
+   like: the fused points within 2 mm of the xtion-alone cloud and within 1 mm of the laser-alone
+   cloud.
 3. Truth: the bin mesh (world frame) plus every object's mesh at its pose from objects.txt.
    * surface error: distance of every cloud point to the nearest triangle of the true meshes
      (Open3D RaycastingScene.compute_distance: closest-point queries; unlike cast_rays these work
@@ -26,10 +21,9 @@
      inside the image, within the sensor's range, and not more than 2 mm behind the nearest sample
      splatted onto the same pixel of a 2x super-sampled z-buffer (occlusion without ray casting);
    * coverage: share of the visible samples with a cloud point within 2 mm.
-4. Prints a markdown table and checks the issue's targets (T within 1 mm / 0.1 deg; fused median
-   <= 1 mm and below xtion and tof alone; fused coverage above every single sensor's), against each
-   single sensor at its own defaults (rows xtion, tof, laser) and, stricter, against the best figure
-   of each metric over every single-sensor variant run.
+4. Prints a markdown table and checks the fusion targets (T within 1 mm / 0.1 deg; fused median
+   <= 1 mm and below xtion and tof alone; fused coverage above every single sensor's) against each
+   single sensor (rows xtion, tof, laser).
 
   /usr/bin/python3 tools/bench/fusion_bench.py [--rig ../shared/data/bin_rig_a]
         [--edgefuse build/host/tools/edgefuse] [--frames 20] [--workdir build/host/fusion_bench]
@@ -40,6 +34,9 @@ import re
 import subprocess
 import sys
 import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from scanner_offset_rig import write_offset_rig  # noqa: E402
 
 import numpy as np
 import open3d as o3d
@@ -201,46 +198,31 @@ def main():
     print("calibration --mode maps: " + out.strip().splitlines()[-1])
 
     # 2. clouds
-    # Single-sensor baselines with all their pixels (--max-sigma 0); the ToF also with its bilateral
-    # filter (round 2's baseline) and with the default noise gate; the target checks take the best
-    # single-sensor figure of each metric.
-    off = ["--laser-offset", "0.002,-0.0015,0.001,0,0,0"]
-    r3 = ["--min-support", "0", "--jump-sigmas", "0"]  # round 3's rules (before feat/fusion4)
-    runs = [("xtion", ["--sensors", "xtion", "--max-sigma", "0"]),
-            ("xtion, round-3 rules", ["--sensors", "xtion", "--max-sigma", "0"] + r3),
-            ("xtion, evidence rule (support 9)", ["--sensors", "xtion", "--max-sigma", "0", "--min-support", "9"]),
-            ("tof", ["--sensors", "tof", "--max-sigma", "0", "--tof-bilateral"]),
-            ("tof, no bilateral", ["--sensors", "tof", "--max-sigma", "0"]),
-            ("tof, no bilateral, round-3 rules", ["--sensors", "tof", "--max-sigma", "0"] + r3),
+    # The scanner's recorded poses 2.7 mm off: a copy of the set, to measure --register-laser.
+    off_rig = os.path.join(a.workdir, "rig_scanner_off")
+    write_offset_rig(a.rig, off_rig)
+    runs = [("xtion", ["--sensors", "xtion"]),
+            ("tof", ["--sensors", "tof"]),
             ("laser", ["--sensors", "laser"]),
             ("pair xtion,laser (not a single sensor)", ["--sensors", "xtion,laser"]),
             ("fused (true extrinsics)", ["--sensors", "xtion,tof,laser"]),
-            ("fused, --sub-unit-fill 8 (round 5's default, support 9)", ["--sensors", "xtion,tof,laser",
-                                                                          "--sub-unit-fill", "8"]),
-            ("fused, --full-coverage (round 4's default)", ["--sensors", "xtion,tof,laser", "--full-coverage"]),
-            ("fused, round-3 rules", ["--sensors", "xtion,tof,laser"] + r3),
-            ("fused, noise-aware jump only", ["--sensors", "xtion,tof,laser", "--min-support", "0"]),
-            ("fused, support rule only", ["--sensors", "xtion,tof,laser", "--jump-sigmas", "0"]),
-            ("fused, support 3", ["--sensors", "xtion,tof,laser", "--min-support", "3"]),
-            ("fused, support 8", ["--sensors", "xtion,tof,laser", "--min-support", "8"]),
             ("fused (calibrated)", ["--sensors", "xtion,tof,laser", "--extrinsics", extr]),
             ("fused, noise gate 4 mm", ["--sensors", "xtion,tof,laser", "--max-sigma", "0.004"]),
             ("fused, noise gate 6 mm", ["--sensors", "xtion,tof,laser", "--max-sigma", "0.006"]),
-            ("fused, tof bilateral", ["--sensors", "xtion,tof,laser", "--tof-bilateral"]),
             ("fused, equal weights", ["--sensors", "xtion,tof,laser", "--no-trust"]),
-            ("fused, laser 2.7 mm off", ["--sensors", "xtion,tof,laser"] + off),
-            ("fused, laser 2.7 mm off, registered", ["--sensors", "xtion,tof,laser", "--register-laser"] + off),
+            ("fused, laser 2.7 mm off", ["--sensors", "xtion,tof,laser"], off_rig),
+            ("fused, laser 2.7 mm off, registered", ["--sensors", "xtion,tof,laser", "--register-laser"], off_rig),
             ("fused, laser registered", ["--sensors", "xtion,tof,laser", "--register-laser"])]
     clouds = {}
-    for name, opts in runs:
+    for name, opts, *rig in runs:
         path = os.path.join(a.workdir, re.sub(r"[^a-z0-9]+", "_", name).strip("_") + ".ply")
         t0 = time.time()
-        out = run([ef, "fuse", a.rig] + opts + ["--origin", a.origin, "--out", path])
+        out = run([ef, "fuse", rig[0] if rig else a.rig] + opts + ["--origin", a.origin, "--out", path])
         last = out.strip().splitlines()[-1]
         clouds[name] = (path, last, time.time() - t0)
         m = re.search(r"first profile's pose as integrated is ([0-9.]+) mm", out)
-        if m and ("--laser-offset" in opts or "--register-laser" in opts):
-            print("%s: laser pose %s mm from the recorded (exact) pose" % (name, m.group(1)))
+        if m and "--register-laser" in opts:
+            print("%s: the registration moved the laser's first pose by %s mm from the recorded pose" % (name, m.group(1)))
 
     # 3. truth
     mesh, scene, vis, vis_pc = truth(a.rig)
@@ -291,39 +273,17 @@ def main():
     fused = res["fused (true extrinsics)"]
     print()
     ok_t = dt_mm <= 1.0 and ddeg <= 0.1
-    # Strictest comparison: the best single-sensor figure of each metric over every variant run
-    # (defaults, round-3 rules, ToF with and without its bilateral filter).
-    tofs = [res[k] for k in res if k.startswith("tof")]
-    xtions = [res[k] for k in res if k.startswith("xtion")]
-    best_tof_med = min(r[2] for r in tofs)
-    best_xtion_med = min(r[2] for r in xtions)
-    ok_med = fused[2] <= 1.0 and fused[2] < best_xtion_med and fused[2] < best_tof_med
-    ok_cov = fused[4] > max([res["laser"][4]] + [r[4] for r in tofs + xtions])
-    # Round 5b: the issue's targets against each single sensor at its own defaults.
-    ok_med_d = fused[2] <= 1.0 and fused[2] < res["xtion"][2] and fused[2] < res["tof, no bilateral"][2]
-    ok_cov_d = fused[4] > max(res["laser"][4], res["xtion"][4], res["tof, no bilateral"][4])
+    singles = [res[k] for k in ("xtion", "tof", "laser")]
+    best_med = min(r[2] for r in singles[:2])
+    best_cov = max(r[4] for r in singles)
+    ok_med = fused[2] <= 1.0 and fused[2] < best_med
+    ok_cov = fused[4] > best_cov
     print("target T_xtion_tof within 1 mm and 0.1 deg: %s (%.3f mm, %.4f deg)" % ("met" if ok_t else "NOT met", dt_mm, ddeg))
-    print("target fused median <= 1 mm and below xtion and tof alone (their defaults): %s" % ("met" if ok_med_d else "NOT met"))
-    print("target fused coverage above every single sensor's (their defaults): %s" % ("met" if ok_cov_d else "NOT met"))
-    print("stricter, against the best single-sensor variant of each metric (%.4f mm, %.1f %%): median %s, coverage %s"
-          % (best_xtion_med, max([res["laser"][4]] + [r[4] for r in tofs + xtions]), "met" if ok_med else "NOT met",
-             "met" if ok_cov else "NOT met"))
-    # Round 5: like for like (the same support rule on the xtion alone), and the full-coverage cloud.
-    xe = res["xtion, evidence rule (support 9)"]
-    print("against the xtion at support 9 (round 5's like for like): fused %.4f mm / %.1f %% against xtion %.4f mm / %.1f %%: median %s, coverage %s"
-          % (fused[2], fused[4], xe[2], xe[4], "below" if fused[2] < xe[2] else "NOT below",
-             "above" if fused[4] > xe[4] else "NOT above"))
-    xd = res["xtion"]
-    print("against the xtion at its own defaults (%.4f mm / %.1f %%): median %s, coverage %s"
-          % (xd[2], xd[4], "below" if fused[2] < xd[2] else "NOT below", "above" if fused[4] > xd[4] else "NOT above"))
-    fc = res["fused, --full-coverage (round 4's default)"]
-    print("--full-coverage: %.4f mm / %.1f %%: median %s, coverage %s" % (
-        fc[2], fc[4], "met" if fc[2] <= 1.0 and fc[2] < best_xtion_med and fc[2] < best_tof_med else "NOT met",
-        "met" if fc[4] > max([res["laser"][4]] + [r[4] for r in tofs + xtions]) else "NOT met"))
+    print("target fused median <= 1 mm and below xtion and tof alone (%.4f mm): %s" % (best_med, "met" if ok_med else "NOT met"))
+    print("target fused coverage above every single sensor's (%.1f %%): %s" % (best_cov, "met" if ok_cov else "NOT met"))
     g = res["fused, noise gate 4 mm"]
     print("with --max-sigma 0.004 (no ToF pixel left on bin_rig_a): median %s, coverage %s" % (
-        "met" if g[2] <= 1.0 and g[2] < best_xtion_med and g[2] < best_tof_med else "NOT met",
-        "met" if g[4] > max([res["laser"][4]] + [r[4] for r in tofs + xtions]) else "NOT met"))
+        "met" if g[2] <= 1.0 and g[2] < best_med else "NOT met", "met" if g[4] > best_cov else "NOT met"))
 
 
 if __name__ == "__main__":

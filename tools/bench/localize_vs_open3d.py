@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Localisation benchmark (issue 5): edgefuse localize vs Open3D 0.16 global registration
+"""Localisation benchmark: edgefuse localize vs Open3D 0.16 global registration
 (FPFH + RANSAC + point-to-plane ICP) on the same inputs in one run.
 
   /usr/bin/python3 tools/bench/localize_vs_open3d.py [--build build/host] [--data ../shared/data]

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Per-frame time split of `edgefuse track` (issue 3 item 8): filter, raycast, ICP, integrate and the
+"""Per-frame time split of `edgefuse track`: filter, raycast, ICP, integrate and the
 whole loop, at 320x240 (bin_rig_a xtion, 256^3 x 2 mm) and 640x480 (TUM fr1/xyz, 256^3 x 1 cm), with
 1 and 2 threads, for the float build (build/host) and the fixed-point build (build/host-fixed).
 

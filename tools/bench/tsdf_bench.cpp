@@ -1,4 +1,4 @@
-// Benchmark of the TSDF kernels alone (speed work, round 3): fuses a sequence at its ground-truth
+// Benchmark of the TSDF kernels alone: fuses a sequence at its ground-truth
 // poses with the board defaults, then raycasts every pose of the sequence again on the final
 // volume. Prints thread CPU time (CLOCK_THREAD_CPUTIME_ID: the figure that survives a loaded
 // machine) per integration and per raycast, in the build's scalar (float or Q16.16).

@@ -13,7 +13,7 @@
 #include "args.hpp"
 #include "commands.hpp"
 #include "eval_metrics.hpp"
-#include "eval_poses.hpp"  // localisation (issue 5)
+#include "eval_poses.hpp"  // localisation
 
 namespace edgefuse::cli {
 namespace {
@@ -95,7 +95,7 @@ int run_rpe(const std::vector<io::StampedPose>& est, const std::vector<io::Stamp
 }  // namespace
 
 int cmd_eval(int argc, char** argv) {
-  // localisation (issue 5): object poses and segments
+  // localisation: object poses and segments
   if (argc >= 1 && !std::strcmp(argv[0], "poses")) return cmd_eval_poses(argc - 1, argv + 1);
   if (argc >= 1 && !std::strcmp(argv[0], "segments")) return cmd_eval_segments(argc - 1, argv + 1);
   if (argc < 1 || (std::strcmp(argv[0], "ate") && std::strcmp(argv[0], "rpe"))) {

@@ -33,7 +33,7 @@ const char* kUsage =
 }  // namespace
 
 int cmd_fuse(int argc, char** argv) {
-  // Several sensors of a rig set into one space (issue 4): its own option set.
+  // Several sensors of a rig set into one space: its own option set.
   for (int i = 0; i < argc; ++i)
     if (std::string(argv[i]) == "--sensors") return cmd_fuse_rig(argc, argv);
   Args args;

@@ -8,13 +8,13 @@ int cmd_fuse(int argc, char** argv);
 int cmd_memmap(int argc, char** argv);
 int cmd_track(int argc, char** argv);
 int cmd_eval(int argc, char** argv);
-// multi-sensor fusion (issue 4)
+// multi-sensor fusion
 int cmd_calibrate(int argc, char** argv);
 int cmd_fuse_rig(int argc, char** argv);  //!< `fuse RIGSET --sensors ...` (called by cmd_fuse)
-// pose link (issue 7, feat/link)
+// pose link
 int cmd_listen(int argc, char** argv);
-// localisation (issue 5)
+// localisation
 int cmd_localize(int argc, char** argv);
-int cmd_acquire(int argc, char** argv);  // HAL (issue 6)
+int cmd_acquire(int argc, char** argv);  // HAL
 
 }  // namespace edgefuse::cli

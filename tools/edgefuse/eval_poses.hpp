@@ -1,4 +1,4 @@
-// `edgefuse eval poses` and `edgefuse eval segments` (localisation accuracy, issue 5), and the
+// `edgefuse eval poses` and `edgefuse eval segments` (localisation accuracy), and the
 // pose-error metrics they use (host code, may allocate).
 #pragma once
 

@@ -27,7 +27,7 @@ bool push_line_scan(TsdfVolume& volume, const io::LineScan& scan, void* tan_tabl
     return false;
   }
   if (options.register_patches && options.patch_profiles < 1) {
-    err = "--laser-patch must be at least 1";
+    err = "a registration patch needs at least 1 profile";
     return false;
   }
   ProfileRegistrationParams reg = options.reg;
@@ -42,7 +42,7 @@ bool push_line_scan(TsdfVolume& volume, const io::LineScan& scan, void* tan_tabl
     // A patch: up to `patch` consecutive profiles that all have poses.
     std::size_t count = 0;
     while (p0 + count < n && count < patch && scan.has_pose[p0 + count]) {
-      poses[count] = carried * (scan.T_world_sensor[p0 + count] * options.offset);
+      poses[count] = carried * scan.T_world_sensor[p0 + count];
       ++count;
     }
     if (count == 0) {  // a profile without a pose is skipped

@@ -29,7 +29,6 @@ struct LaserPushOptions {
   bool register_patches = false;  //!< register each patch against the space before integrating it
   int patch_profiles = 300;       //!< profiles per patch: 30 cm of sweep at 1 mm steps, so that it crosses several
                                   //!< objects' edges (30-profile patches: mostly floor, 1-2 mm wrong; BENCHMARKS)
-  Pose offset;                    //!< error put on every recorded pose (sensor frame: T * offset); for benchmarks
   float max_rms_m = 0.0f;         //!< a patch whose rms after registration is above this keeps the carried
                                   //!< correction (0: half a voxel)
   ProfileRegistrationParams reg = defaults();  //!< registration thresholds (max_distance_m 0: the truncation / 2)
@@ -46,12 +45,12 @@ struct LaserPushStats {
   Pose first_pose_used;    //!< the first profile's pose as integrated (offset and correction applied)
 };
 
-//! Pushes the profiles of `scan` (its recorded poses times options.offset, registered per patch
-//! when asked) into the volume.
+//! Pushes the profiles of `scan` (at its recorded poses, registered per patch when asked) into the
+//! volume.
 //! \param volume the space (cameras already pushed)  \param scan the line scanner's data
 //! \param tan_table storage for the scanner's tan table (scan.sensor.line.beams real_t values)
 //! \param tan_capacity its capacity in values  \param trust the scanner's trust factor (0, 1]
-//! \param options registration and offset  \param stats what happened  \param err error text
+//! \param options registration  \param stats what happened  \param err error text
 bool push_line_scan(TsdfVolume& volume, const io::LineScan& scan, void* tan_table, int tan_capacity, float trust,
                     const LaserPushOptions& options, LaserPushStats& stats, std::string& err);
 

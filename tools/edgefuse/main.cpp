@@ -19,13 +19,13 @@ const Command kCommands[] = {
     {"memmap", edgefuse::cli::cmd_memmap, "print a board's static memory map"},
     {"track", edgefuse::cli::cmd_track, "track the sensor by ICP against the fused model, fuse, write the trajectory"},
     {"eval", edgefuse::cli::cmd_eval, "trajectory accuracy: ATE (aligned) / RPE against ground truth, as TUM's tools"},
-    // multi-sensor fusion (issue 4)
+    // multi-sensor fusion
     {"calibrate", edgefuse::cli::cmd_calibrate, "find the mounting T_A_B of two rigidly mounted sensors from the data"},
-    // pose link (issue 7, feat/link)
+    // pose link
     {"listen", edgefuse::cli::cmd_listen, "decode and print the pose link (serial, TCP, UDP or a captured file)"},
-    // localisation (issue 5)
+    // localisation
     {"localize", edgefuse::cli::cmd_localize, "object poses (--model FILE.ply ...) or model-free segments (--segments)"},
-    // HAL (issue 6)
+    // HAL
     {"acquire", edgefuse::cli::cmd_acquire, "run the board's cameras through the acquisition runtime, print status"},
 };
 

@@ -439,8 +439,8 @@ bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const st
     const io::LineScan& scan = rs.scans[k];
     void* tan = reinterpret_cast<real_t*>(core.buffers.ray_norms) + std::size_t(rs.scan_slot[k]) * core.buffers.pixels_per_sensor;
     // Inverse-variance trust, not capped at 1: where the 20 um scanner measured it must dominate the
-    // cameras (capped at 1 it held ~1/6 of the voxel: fused 0.061 mm median on its strip against
-    // 0.008 mm for the laser alone; BENCHMARKS "round 3").
+    // cameras (capped at 1 it holds ~1/6 of the voxel: fused 0.061 mm median on its strip against
+    // 0.008 mm for the laser alone).
     const float trust =
         sigma_ref_m > 0 ? NoiseModel::constant(20e-6f).trust(sigma_ref_m, 0.0f, 0.0f, kProfileTrustMax) : 1.0f;
     LaserPushStats st;
@@ -455,12 +455,14 @@ bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const st
                     scan.sensor.name.c_str(), st.accepted, st.patches, laser.patch_profiles, 1e3f * st.mean_rms_m,
                     1e3f * c.t.norm(), 57.29578f * c.angle_rad(), st.max_step_mm);
       }
-      // Against the recorded poses (exact on a simulated rig): what the offset and the registration left.
+      // How far the registration moved the scanner from its recorded poses (0 without it).
       for (std::size_t p = 0; p < scan.profiles.size(); ++p)
         if (scan.has_pose[p] && st.profiles > 0) {
           const Pose D = scan.T_world_sensor[p].inverse() * st.first_pose_used;
-          std::printf("%s: first profile's pose as integrated is %.3f mm, %.4f deg from the recorded pose\n",
-                      scan.sensor.name.c_str(), 1e3f * D.t.norm(), 57.29578f * D.angle_rad());
+          std::printf("%s: first profile's pose as integrated is %.3f mm, %.4f deg from the recorded pose "
+                      "(t %.3f %.3f %.3f mm in its frame)\n",
+                      scan.sensor.name.c_str(), 1e3f * D.t.norm(), 57.29578f * D.angle_rad(), 1e3f * D.t.x(),
+                      1e3f * D.t.y(), 1e3f * D.t.z());
           break;
         }
     }

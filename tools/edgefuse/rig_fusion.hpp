@@ -145,13 +145,13 @@ bool place_rig_volume(RigSensors& rs, FuseSettings& settings, std::string& err);
 //! \param frames_max frames per camera  \param filter pre-filter the depth  \param colour_ref integrate the
 //! reference camera's colour  \param sigma_ref_m trust reference noise (0: equal weights)
 //! \param filter_scratch spare image  \param err error text  \param verbose one line per sensor
-//! \param laser line scanners: patch registration, pose offset (laser_push.hpp; default: recorded poses)
+//! \param laser line scanners: patch registration (laser_push.hpp; default: recorded poses)
 bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const std::vector<Pose>& mount,
                      const std::vector<char>& mounted, std::size_t frames_max, bool filter, bool colour_ref,
                      float sigma_ref_m, ImageView<uint16_t> filter_scratch, std::string& err, bool verbose,
                      const LaserPushOptions& laser = LaserPushOptions());
 
-//! Round 5b: the set's sub-unit fill (fusion_rules.hpp default_sub_unit_fill), decided before the
+//! The set's sub-unit fill (fusion_rules.hpp default_sub_unit_fill), decided before the
 //! push from each camera's first frame (staged as the push will, counters left untouched), set on
 //! every camera (PinholeSlot::sub_unit_fill_units).
 //! \param rs bound sensors  \param filter pre-filter as the push  \param sigma_ref_m trust reference (0: none, fill 8)

@@ -1,5 +1,5 @@
 // Noise rules of multi-sensor fusion, shared by `edgefuse fuse --sensors`, `edgefuse localize
-// --sensors` and edgefused's sensors.fuse (BENCHMARKS "Multi-sensor fusion", rounds 4 and 5).
+// --sensors` and edgefused's sensors.fuse (figures: docs/BENCHMARKS.md, "Multi-sensor fusion").
 //
 // 1. Depth discontinuity follows the frame's noise: integration drops a sample whose 2x2 pixels
 //    differ by more than jump_sigmas x the frame's median modelled noise (never below the
@@ -12,14 +12,14 @@
 //    to 8 may be up to 8 such samples whose evidence is 8 x 0.18 = 1.4 units (sigma_eff >= 2.4 mm),
 //    and only a weight of 9 or more proves a sample of at least one unit.
 //    * kMinSupportWeight (4): half a sample, one Xtion frame at 0.7 m (sigma 1.4 mm); the rule for
-//      a single sensor, and the full-coverage rule of a fused set (round 4).
+//      a single sensor, and of every set once rule 3 applies.
 //    * kEvidenceSupportWeight (9): the evidence rule of a set that mixes a sub-unit sensor with a
 //      wide-field sensor whose frames weigh at least one unit: a point must have the accuracy of one
 //      frame of the best wide-field sensor. A sub-unit sensor can not reach that alone (20 ToF frames
 //      of 6.7 mm average to 1.5 mm, one Xtion frame is 1.4 mm), and its stored weights can not be
 //      told from a good sensor's below 9 - so the fused cloud keeps the good sensors' surface where
 //      it has more than one unit-sized sample, the ToF adds weight only where it agrees with them.
-// 3. Sub-unit fill of a mixed set (round 5b, BENCHMARKS "Multi-sensor fusion, round 5b"): rule 2's
+// 3. Sub-unit fill of a mixed set: rule 2's
 //    9 also drops the good sensor's crossings seen by one frame (4 units). Instead, in a set that
 //    mixes a sub-unit camera with a unit-sized one, sub-unit samples fill a voxel only up to
 //    kSubUnitFillUnits (3 < kMinSupportWeight; DepthFrame::sub_unit_fill_units) rather than 8: a
@@ -78,7 +78,7 @@ inline constexpr int kSubUnitFillUnits = 3;
 bool mixed_sub_unit_set(const float* median_sigma_m, int cameras, float sigma_ref_m);
 
 //! Default DepthFrame::sub_unit_fill_units of a set: kSubUnitFillUnits when it is mixed
-//! (mixed_sub_unit_set), else kWeightUnitsPerSample (one full sample, as before round 5b).
+//! (mixed_sub_unit_set), else kWeightUnitsPerSample (one full sample).
 //! \param median_sigma_m each camera's median noise (0: no data, ignored)  \param cameras count
 //! \param sigma_ref_m the trust reference
 int default_sub_unit_fill(const float* median_sigma_m, int cameras, float sigma_ref_m);

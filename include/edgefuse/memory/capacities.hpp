@@ -17,7 +17,7 @@ struct BoardCapacities {
   int objects_max;             //!< most objects in one localisation result
   uint64_t ram_budget_bytes;   //!< what the static memory map may use
   bool fixed_point;            //!< the board's default numeric build
-  // localisation (issue 5)
+  // localisation
   int models_max;              //!< object models loaded at start-up
   uint32_t model_points_max;   //!< dense surface samples per model (refinement, verification)
   uint32_t ppf_points_max;     //!< sparse samples per model (point pair feature table: n(n-1) entries)

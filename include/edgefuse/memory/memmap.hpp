@@ -9,7 +9,7 @@
 #include "edgefuse/core/image.hpp"
 #include "edgefuse/core/status.hpp"
 #include "edgefuse/math/pose.hpp"
-#include "edgefuse/localize/localizer.hpp"  // localisation (issue 5)
+#include "edgefuse/localize/localizer.hpp"  // localisation
 #include "edgefuse/memory/capacities.hpp"
 #include "edgefuse/tracking/icp.hpp"
 #include "edgefuse/tsdf/extract.hpp"
@@ -39,9 +39,9 @@ enum class Region : int {
   kPyramidVertex,   //!< tracking: the frame's vertex maps, all pyramid levels, per sensor
   kPyramidNormal,   //!< tracking: the frame's normal maps, all pyramid levels, per sensor
   kIcpRowSums,      //!< tracking: ICP per-row partial sums per sensor
-  // multi-sensor fusion (issue 4)
+  // multi-sensor fusion
   kTrustMaps,       //!< per-pixel trust (uint8, 1/255) from each sensor's noise model
-  // localisation (issue 5)
+  // localisation
   kLocModels,       //!< model descriptions
   kLocModelPoints,  //!< dense model samples
   kLocPpfPoints,    //!< sparse model samples (PPF)
@@ -58,14 +58,14 @@ enum class Region : int {
   kLocCandidates,   //!< pose candidates (vote peaks)
   kLocVerified,     //!< refined, verified hypotheses
   kLocResults,      //!< the pose list
-  // raycast speed work (perf2)
+  // raycast: per-brick block masks
   kBlockMasks,      //!< per brick: which of its 64 blocks of 2^3 voxels hold a distance < +1
-  // acquisition frame pools (HAL, issue 6): kFramePoolSlots frames per sensor, filled by the
+  // acquisition frame pools (HAL): kFramePoolSlots frames per sensor, filled by the
   // device threads and handed to processing (hal/acquisition/frame_pool.hpp)
   kAcqDepth,        //!< pooled depth (uint16)
   kAcqColour,       //!< pooled registered colour
   kAcqAmplitude,    //!< pooled ToF amplitude (uint16)
-  // line-scanner profile pool (edgefused4): kProfilePoolSlots profiles of the line scanner's thread
+  // line-scanner profile pool: kProfilePoolSlots profiles of the line scanner's thread
   kAcqProfiles,     //!< pooled profile ranges (float)
   kCount
 };
@@ -84,7 +84,7 @@ inline constexpr std::size_t kRegionAlign = 64;  //!< every region starts on a c
 //! Frames in each sensor's acquisition pool: the device fills one, a stereo pairer holds up to
 //! three of a stream, processing one more, and one is in flight (hal/acquisition).
 inline constexpr int kFramePoolSlots = 6;
-// line-scanner profile pool (edgefused4): the profiles that wait between two main-loop ticks of
+// line-scanner profile pool: the profiles that wait between two main-loop ticks of
 // edgefused (15, the most the channel's 16-entry rings hold: 150 ms at 100 Hz), each of up to the
 // board's widest image in beams (a profile's ray table takes a sensor slot of image_width_max x
 // image_height_max entries, so no scanner the board can place has more beams).
@@ -121,9 +121,9 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kPyramidVertex, "frame pyramid vertices", pyramid * sizeof(Point3<float>));
   set(Region::kPyramidNormal, "frame pyramid normals", pyramid * sizeof(Point3<float>));
   set(Region::kIcpRowSums, "icp row sums", uint64_t(c.image_height_max) * kIcpRowBytes * c.sensors_max);
-  // multi-sensor fusion (issue 4)
+  // multi-sensor fusion
   set(Region::kTrustMaps, "trust maps (uint8)", pixels * sizeof(uint8_t));
-  // localisation (issue 5)
+  // localisation
   const uint64_t mm = uint64_t(c.models_max);
   set(Region::kLocModels, "loc models", mm * sizeof(ModelInfo));
   set(Region::kLocModelPoints, "loc model samples", mm * c.model_points_max * sizeof(OrientedPoint));
@@ -138,18 +138,18 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kLocSample, "loc scene sample", uint64_t(c.scene_points_max) * sizeof(uint32_t));
   set(Region::kLocLabels, "loc labels", uint64_t(c.scene_points_max) * sizeof(int32_t));
   set(Region::kLocQueue, "loc queue", uint64_t(c.scene_points_max) * sizeof(uint32_t));
-  // localize3: one accumulator per vote chunk (parallel PPF voting)
+  // one accumulator per vote chunk (parallel PPF voting)
   set(Region::kLocVotes, "loc votes", uint64_t(kVoteAccumulators) * c.ppf_points_max * kPpfAngleBins * sizeof(uint16_t));
   set(Region::kLocCandidates, "loc pose candidates", uint64_t(c.hypotheses_max) * sizeof(PoseCandidate));
   set(Region::kLocVerified, "loc verified hypotheses", mm * kClustersPerModel * sizeof(LocalizedObject));
   set(Region::kLocResults, "loc pose list", uint64_t(c.objects_max) * sizeof(LocalizedObject));
-  set(Region::kBlockMasks, "brick block masks", bricks * sizeof(uint64_t));  // raycast speed work (perf2)
-  // acquisition frame pools (HAL, issue 6)
+  set(Region::kBlockMasks, "brick block masks", bricks * sizeof(uint64_t));  // raycast: per-brick block masks
+  // acquisition frame pools (HAL)
   const uint64_t pooled = pixels * uint64_t(kFramePoolSlots);
   set(Region::kAcqDepth, "acquisition pools: depth", pooled * sizeof(uint16_t));
   set(Region::kAcqColour, "acquisition pools: colour", pooled * sizeof(Rgb8));
   set(Region::kAcqAmplitude, "acquisition pools: amplitude", pooled * sizeof(uint16_t));
-  // line-scanner profile pool (edgefused4)
+  // line-scanner profile pool
   set(Region::kAcqProfiles, "acquisition pools: line profiles",
       uint64_t(c.image_width_max) * uint64_t(kProfilePoolSlots) * sizeof(float));
   uint64_t total = 0;
@@ -158,7 +158,7 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   return m;
 }
 
-//! The acquisition frame pools (HAL, issue 6): `pools` pools (one per sensor) of `slots` frames
+//! The acquisition frame pools (HAL): `pools` pools (one per sensor) of `slots` frames
 //! of up to `pixels_per_slot` pixels each, slot after slot, pool after pool.
 struct FramePoolBuffers {
   uint16_t* depth = nullptr;
@@ -169,7 +169,7 @@ struct FramePoolBuffers {
   int pools = 0;
 };
 
-//! The line scanner's profile pool (edgefused4): `slots` profiles of up to `beams_max` ranges each,
+//! The line scanner's profile pool: `slots` profiles of up to `beams_max` ranges each,
 //! slot after slot.
 struct ProfilePoolBuffers {
   float* ranges_m = nullptr;
@@ -194,9 +194,9 @@ struct CoreBuffers {
   void* pyramid_normal = nullptr;     //!< the same
   void* icp_rows = nullptr;           //!< IcpSums of either build, kIcpRowBytes per row
   uint8_t* trust_maps = nullptr;      //!< sensors_max trust maps of image_*_max (multi-sensor fusion)
-  LocalizeBuffers localize;           //!< localisation tables (issue 5)
-  FramePoolBuffers frame_pools;       //!< acquisition frame pools (HAL, issue 6)
-  ProfilePoolBuffers profile_pool;    //!< the line scanner's profile pool (edgefused4)
+  LocalizeBuffers localize;           //!< localisation tables
+  FramePoolBuffers frame_pools;       //!< acquisition frame pools (HAL)
+  ProfilePoolBuffers profile_pool;    //!< the line scanner's profile pool
   std::size_t pixels_per_sensor = 0;  //!< stride between the sensors' images in each region
   std::size_t tiles_per_sensor = 0;   //!< stride between the sensors' tile arrays
   std::size_t pyramid_points_per_sensor = 0;  //!< points of one sensor's pyramid map (all levels)

@@ -43,13 +43,13 @@ enum ParamId : int {
   kSensorsReplay,
   kTsdfVoxelM,
   kTsdfTruncM,
-  // real pipeline in edgefused (issue 7 wiring, feat/wire)
+  // edgefused's pipeline: frame source, models, filters, tracking
   kPipelineSource,
   kLocalizeModels,
   kFiltersBilateral,
   kTrackingPoses,
   kTrackingPushEveryFrame,
-  // edgefused: every sensor feeds the map (issue 7, feat/edgefused3)
+  // edgefused: which cameras feed the map
   kSensorsFuse,
   kSensorsReplaySpeed,
   kParamCount

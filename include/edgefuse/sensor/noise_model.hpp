@@ -1,4 +1,4 @@
-// Per-sensor trust (issue 4, item 3): each sensor model states its range noise sigma(z) (and, for
+// Per-sensor trust: each sensor model states its range noise sigma(z) (and, for
 // a ToF camera, sigma(z, amplitude)); integration weighs a sample by (sigma_ref / sigma)^2, the
 // inverse-variance weight relative to a reference noise, so a running average over sensors is
 // the maximum-likelihood fusion of their measurements. This answers the paper's question "how much

@@ -30,7 +30,7 @@ struct SurfacePoint {
 //! \param min_weight support rule: a crossing is emitted only when both of its voxels hold at least
 //!        this weight (units of volume.hpp: 1/8 of a full-trust sample); 0 or 1: every observed pair.
 //!        Multi-sensor fusion uses it to drop zero crossings made by one or two samples of a sensor
-//!        whose noise is of the order of the truncation (BENCHMARKS "Multi-sensor fusion, round 4").
+//!        whose noise is of the order of the truncation (docs/BENCHMARKS.md, "Multi-sensor fusion").
 //! \return kOutputTruncated when more points exist than fit (the first `capacity` are written)
 Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t capacity, std::size_t& count,
                       uint8_t min_weight = 0);

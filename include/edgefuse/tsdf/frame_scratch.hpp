@@ -3,7 +3,7 @@
 //                whole brick can be classified at once (entirely behind the surface: skipped;
 //                entirely in free space: updated without projecting each voxel).
 // The raycast needs none: it keeps each pixel's march range in its own depth map
-// (src/tsdf/raycast_bounds.hpp), so prepare_raycast / raycast take no scratch (since session 6).
+// (src/tsdf/raycast_bounds.hpp), so prepare_raycast / raycast take no scratch.
 #pragma once
 
 #include <cstddef>

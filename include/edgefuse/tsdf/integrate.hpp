@@ -51,7 +51,7 @@ struct DepthFrame {
   //! discontinuity (no update there); 0: the truncation distance. A sensor whose per-pixel noise
   //! is of the order of the truncation (ToF) needs more, or its noise alone reads as depth edges
   //! and most of its samples are dropped - selectively: at slopes only those whose noise happens
-  //! to cancel the slope pass (BENCHMARKS "Multi-sensor fusion, round 4").
+  //! to cancel the slope pass (docs/BENCHMARKS.md, "Multi-sensor fusion").
   float jump_m = 0.0f;
   //! Weight units up to which samples worth less than half a unit (trust map) still fill a voxel,
   //! one unit each (voxel_update.hpp scale_by_trust), 1..255: 8 (one full sample, the default) keeps

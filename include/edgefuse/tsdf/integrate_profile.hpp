@@ -1,4 +1,4 @@
-// Push and raycast of a line scanner profile (paper eq. 6-8, issue 4 item 2).
+// Push and raycast of a line scanner profile (paper eq. 6-8).
 //
 // Integration: only voxels whose centre lies within `plane_band_m` (default half a voxel) of the
 // profile's scan plane are updated, so a sweep in steps of about a voxel writes each voxel from

@@ -1,4 +1,4 @@
-// Registration of line-scanner profiles to the space (issue 4, item 2): several consecutive
+// Registration of line-scanner profiles to the space: several consecutive
 // profiles form a patch; one rigid correction of the patch's poses is found by Gauss-Newton on the
 // space's signed distance at the profile points (the points should lie on the zero level):
 //   r_i = D(dT p_i),  J_i = [ ((p_i - c) x g_i)^T, g_i^T ],  g_i = grad D (trilinear, central

@@ -1,4 +1,4 @@
-// Fusion round 5 (issue 4): the noise rules shared by `edgefuse fuse --sensors`, `localize --sensors`
+// The noise rules of multi-sensor fusion shared by `edgefuse fuse --sensors`, `localize --sensors`
 // and edgefused (fusion_rules.hpp), and the physics of the evidence rule: a voxel fed only samples
 // worth less than half a weight unit (a ToF pixel of 6.7 mm against sigma_ref 1 mm: 0.18 unit) never
 // holds more than 8 units however many frames come, so a support of 9 leaves no crossing made of
@@ -50,7 +50,7 @@ void plane_frames(float sigma_m, int frames, SensorBuffers<Real>& buf, int& max_
   f.trust = ImageView<const uint8_t>(trust.data(), intr.width, intr.height);
   f.jump_m = noise_jump_m(sigma_m, kJumpSigmas);
   f.sub_unit_fill_units = fill_units;
-  // fusion5b: optionally `first_frames` frames of another sensor (noise first_sigma_m) before.
+  // Optionally `first_frames` frames of another sensor (noise first_sigma_m) before.
   std::vector<uint8_t> trust_first(depth.size());
   DepthFrame f0 = f;
   if (first_frames > 0) {
@@ -76,9 +76,9 @@ void plane_frames(float sigma_m, int frames, SensorBuffers<Real>& buf, int& max_
 }
 }  // namespace
 
-TEST_GROUP(Fusion5){};
+TEST_GROUP(FusionRules){};
 
-TEST(Fusion5, RuleValues) {
+TEST(FusionRules, RuleValues) {
   DOUBLES_EQUAL(0.0, noise_jump_m(0.0067f, 0.0f), 0.0);
   DOUBLES_EQUAL(2.83 * 0.0067, noise_jump_m(0.0067f, kJumpSigmas), 1e-6);
   DOUBLES_EQUAL(1.0, noise_jump_m(0.5f, 10.0f), 0.0);  // integration's bound
@@ -95,7 +95,7 @@ TEST(Fusion5, RuleValues) {
   LONGS_EQUAL(4, default_support_weight(tof_nodata, 2, kSigmaRef));
   LONGS_EQUAL(4, default_support_weight(two_good, 2, kSigmaRef));
   LONGS_EQUAL(kWeightUnitsPerSample + 1, kEvidenceSupportWeight);
-  // fusion5b: a mixed set fills sub-unit samples to 3 (< the support rule's 4), and then needs 4 only.
+  // A mixed set fills sub-unit samples to 3 (< the support rule's 4), and then needs 4 only.
   CHECK(kSubUnitFillUnits < kMinSupportWeight);
   CHECK(mixed_sub_unit_set(xtion_tof, 2, kSigmaRef));
   CHECK(!mixed_sub_unit_set(tof_only, 1, kSigmaRef) && !mixed_sub_unit_set(xtion_only, 1, kSigmaRef));
@@ -108,7 +108,7 @@ TEST(Fusion5, RuleValues) {
   LONGS_EQUAL(9, default_support_weight(xtion_tof, 2, kSigmaRef, kWeightUnitsPerSample));
   LONGS_EQUAL(9, default_support_weight(xtion_tof, 2, kSigmaRef, kMinSupportWeight));
   LONGS_EQUAL(4, default_support_weight(tof_only, 1, kSigmaRef, kSubUnitFillUnits));
-  LONGS_EQUAL(kWeightUnitsPerSample, DepthFrame{}.sub_unit_fill_units);  // default: as before round 5b
+  LONGS_EQUAL(kWeightUnitsPerSample, DepthFrame{}.sub_unit_fill_units);  // default: one full sample
 }
 
 namespace {
@@ -122,7 +122,7 @@ float median_sigma_of(const NoiseModel& model, const uint16_t* d, int n) {
 }
 }  // namespace
 
-TEST(Fusion5, MedianSigmaOfAFrame) {
+TEST(FusionRules, MedianSigmaOfAFrame) {
   uint16_t d[6] = {0, 3500, 3500, 3500, 5000, 5000};  // 0.7 m x3, 1.0 m x2 (depth scale 5000)
   const NoiseModel sl = NoiseModel::structured_light();
   const float med = median_sigma_of(sl, d, 6);
@@ -131,7 +131,7 @@ TEST(Fusion5, MedianSigmaOfAFrame) {
   DOUBLES_EQUAL(0.0, median_sigma_of(sl, none, 2), 0.0);
 }
 
-TEST(Fusion5, SubUnitSamplesNeverReachTheEvidenceRule) {
+TEST(FusionRules, SubUnitSamplesNeverReachTheEvidenceRule) {
   int w_tof = 0, w_tof_q = 0, w_one = 0, w_three = 0;
   std::size_t tof4 = 0, tof9 = 0, tof4_q = 0, tof9_q = 0, one4 = 0, one9 = 0, three4 = 0, three9 = 0;
   plane_frames<float>(0.0067f, 20, g_buf_f, w_tof, tof4, tof9);
@@ -143,7 +143,7 @@ TEST(Fusion5, SubUnitSamplesNeverReachTheEvidenceRule) {
               w_tof, w_tof_q, tof4, tof9, w_one, one4, one9, w_three, three4, three9);
   CHECK(w_tof <= kWeightUnitsPerSample);  // 20 samples, at most 8 units stored
   CHECK(w_tof_q <= kWeightUnitsPerSample);
-  CHECK(tof4 > std::size_t(kDim * kDim / 2));  // the full-coverage rule keeps the ToF's plane
+  CHECK(tof4 > std::size_t(kDim * kDim / 2));  // support 4 keeps the ToF's plane at fill 8
   LONGS_EQUAL(0, tof9);                        // the evidence rule does not
   LONGS_EQUAL(tof4, tof4_q);
   LONGS_EQUAL(0, tof9_q);
@@ -152,11 +152,11 @@ TEST(Fusion5, SubUnitSamplesNeverReachTheEvidenceRule) {
   CHECK(three9 > std::size_t(kDim * kDim / 2));  // three frames pass the evidence rule
 }
 
-// fusion5b: with the mixed set's fill, 20 ToF frames alone stop at 3 units (float and Q16.16), so
+// With the mixed set's fill, 20 ToF frames alone stop at 3 units (float and Q16.16), so
 // support 4 leaves none of their crossings; one 1.4 mm frame still passes 4. Where the ToF comes
 // after one such frame (4 units) it adds nothing; where it comes first, 3 units against the frame's 4.
-// The default fill (8) gives round 5's volume: the same test above, and here bit for bit.
-TEST(Fusion5, MixedSetFillStopsSubUnitSamplesBelowTheSupportRule) {
+// The default fill (8) gives the volume of the test above, here checked again.
+TEST(FusionRules, MixedSetFillStopsSubUnitSamplesBelowTheSupportRule) {
   int w = 0, w_q = 0, w_one = 0, w_after = 0;
   std::size_t n4 = 0, n9 = 0, n4_q = 0, n9_q = 0, one4 = 0, one9 = 0, a4 = 0, a9 = 0;
   plane_frames<float>(0.0067f, 20, g_buf_f, w, n4, n9, kSubUnitFillUnits);
@@ -179,7 +179,7 @@ TEST(Fusion5, MixedSetFillStopsSubUnitSamplesBelowTheSupportRule) {
   CHECK(w_first <= kSubUnitFillUnits + 4);
   CHECK(f4 > std::size_t(kDim * kDim / 2));
   LONGS_EQUAL(0, f9);
-  // Default fill: the round-5 figures (at most 8 units, crossings at 4 as before).
+  // Default fill: at most 8 units, crossings at support 4.
   int w8 = 0, w8_q = 0;
   std::size_t m4 = 0, m9 = 0, m4_q = 0, m9_q = 0;
   plane_frames<float>(0.0067f, 20, g_buf_f, w8, m4, m9);
@@ -189,8 +189,8 @@ TEST(Fusion5, MixedSetFillStopsSubUnitSamplesBelowTheSupportRule) {
   CHECK(m4 > std::size_t(kDim * kDim / 2));
 }
 
-// fusion5b: a fill outside 1..255 is refused before anything is integrated.
-TEST(Fusion5, BadSubUnitFillRejected) {
+// A fill outside 1..255 is refused before anything is integrated.
+TEST(FusionRules, BadSubUnitFillRejected) {
   const PinholeIntrinsics intr = bin_rig_a_tof_camera();
   Scene scene;
   scene.add_plane(Vec3f(0, 0, -1), kPlaneZ);

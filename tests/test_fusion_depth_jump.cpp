@@ -1,4 +1,4 @@
-// Fusion round 4 (issue 4): a depth sensor whose noise is of the order of the truncation (a ToF
+// Noise-aware depth discontinuity (DepthFrame::jump_m): a depth sensor whose noise is of the order of the truncation (a ToF
 // camera: 6 mm against 8 mm) must not have its noise read as depth discontinuities. With the
 // truncation as the jump limit two thirds of a noisy plane's voxels get no sample from a frame (the
 // 2x2 pixels a voxel interpolates from differ by more than 8 mm); with DepthFrame::jump_m at 2.83
@@ -66,9 +66,9 @@ double observed_share(float jump_m, SensorBuffers<Real>& buf) {
 }
 }  // namespace
 
-TEST_GROUP(Fusion4){};
+TEST_GROUP(FusionDepthJump){};
 
-TEST(Fusion4, NoiseAwareJumpLetsANoisyPlaneIn) {
+TEST(FusionDepthJump, NoiseAwareJumpLetsANoisyPlaneIn) {
   const double f_trunc = observed_share<float>(0.0f, g_buf_f);
   const double f_noise = observed_share<float>(2.83f * kSigma, g_buf_f);
   const double q_trunc = observed_share<Fixed>(0.0f, g_buf_q);
@@ -83,7 +83,7 @@ TEST(Fusion4, NoiseAwareJumpLetsANoisyPlaneIn) {
   CHECK(std::fabs(observed_share<float>(0.5f * kTrunc, g_buf_f) - f_trunc) < 1e-9);
 }
 
-TEST(Fusion4, BadJumpRejected) {
+TEST(FusionDepthJump, BadJumpRejected) {
   const PinholeIntrinsics intr = bin_rig_a_tof_camera();
   const std::vector<uint16_t> depth = noisy_plane(intr);
   TsdfVolume vol;
