@@ -54,9 +54,8 @@ const char* kUsage =
     "  first pose from the set, push after 1 cm / 1 deg or with [--push-every-frame]) instead of its ground-truth poses.\n"
     "  --sensors A,B,..: fuse these sensors of a rig set (as `edgefuse fuse --sensors`: pre-filters, noise-model\n"
     "  trust, line scanners) into the one space that is localised in; the viewpoint is the first colour camera's;\n"
-    "  with [--no-filter] [--no-trust] [--min-weight W] (as for `edgefuse fuse`); [--fusion-rules]: also the noise\n"
-    "  rules of `edgefuse fuse --sensors` (depth jump 2.83 sigma, sub-unit fill and support rule by set; off by default: BENCHMARKS\n"
-    "  \"Multi-sensor fusion, round 5\"), or [--min-support W] [--jump-sigmas K] given alone.\n"
+    "  with [--no-filter] [--no-trust] [--min-weight W] (as for `edgefuse fuse`); every fused crossing is kept\n"
+    "  (no support rule: it was measured to cost the localiser).\n"
     "  Poses: one line per object `id tx ty tz qx qy qz qw score model` (T_world_object; id = picking rank).\n"
     "  --check-truth (rig sets): also verifies every true object pose of objects.txt (at the truth and after ICP\n"
     "  from it) as a hypothesis would be, to show why a known object is missed.\n"
@@ -157,9 +156,9 @@ bool parse_options(int argc, char** argv, LocalizeOptions& o, Failure& f) {
                     {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score",
                      "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "config", "seg-smooth",
                      "seg-concave", "seg-radius", "seg-colour", "seg-crease", "seg-crease-radius",
-                     "seg-crease-concave", "seg-crease-pairs", "seg-crease-share", "min-support", "jump-sigmas"},
+                     "seg-crease-concave", "seg-crease-pairs", "seg-crease-share"},
                     {"segments", "seg-keep-small", "no-walls", "no-filter", "no-trust", "check-truth", "track",
-                     "push-every-frame", "no-rest-poses", "fusion-rules"},
+                     "push-every-frame", "no-rest-poses"},
                     err) ||
       o.args.positional().size() != 1)
     return fail(f, (err.empty() ? "expected one INPUT" : err) + "\n" + kUsage, 2);
@@ -236,17 +235,11 @@ bool fuse_rig_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Failure
   if (!open_rig_sensors(o.input, set, split_names(args.get("sensors")), board, rs, err, usage))
     return fail(f, err, usage ? 2 : 1);
   if (rs.ref < 0) return fail(f, "--sensors needs at least one pinhole camera (the viewpoint)", 2);
+  // The cloud localised in keeps every fused crossing: the fusion rules of `fuse --sensors`
+  // (per-frame jump limit, the set's support rule) were measured not to localise better on bin_rig_a
+  // (3/6 objects either way, more false poses with the support rule), so localisation fuses without them.
   int min_weight = 0;
-  // The noise rules of `fuse --sensors` (fusion_rules.hpp), opt-in here.
-  const bool rules = args.has("fusion-rules") && !args.has("no-trust");
-  int min_support = -1;  // -1: by set (with --fusion-rules) or off
-  float jump_sigmas = rules ? kJumpSigmas : 0.0f;
-  if (!args.get_int("min-weight", 0, 255, min_weight, err) || !args.get_int("min-support", 0, 255, min_support, err) ||
-      !args.get_float("jump-sigmas", 0.0f, 10.0f, jump_sigmas, err))
-    return fail(f, err, 2);
-  if (args.has("no-trust") && (jump_sigmas > 0.0f || args.has("fusion-rules")))
-    return fail(f, "--fusion-rules / --jump-sigmas need the noise models (not with --no-trust)", 2);
-  for (PinholeSlot& c : rs.cams) c.jump_sigmas = jump_sigmas;
+  if (!args.get_int("min-weight", 0, 255, min_weight, err)) return fail(f, err, 2);
   FuseSettings fs = o.fuse;
   CoreSetup& core = sc.core;
   ImageView<uint16_t> filter_scratch;
@@ -256,11 +249,6 @@ bool fuse_rig_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Failure
     return fail(f, o.input + ": " + err);
   const std::vector<Pose> mount(rs.cams.size());
   const std::vector<char> mounted(rs.cams.size(), 0);
-  // With the rules, sub-unit samples of a mixed set fill a voxel only up to 3 units.
-  int sub_unit_fill = kWeightUnitsPerSample;
-  if (rules && !plan_sub_unit_fill(rs, !args.has("no-filter"), 0.5f * fs.voxel_m, filter_scratch, sub_unit_fill, err))
-    return fail(f, err);
-  if (rules) std::printf("sub-unit fill: samples below half a unit fill a voxel up to %d weight units\n", sub_unit_fill);
   PoolRunners threads;
   threads.start(fs.threads);
   if (!push_rig_frames(rs, core, threads.pool, mount, mounted, std::size_t(o.frames_max), !args.has("no-filter"),
@@ -278,12 +266,6 @@ bool fuse_rig_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Failure
   sc.clock.start();
   LocalizationRequest request;
   request.viewpoint_m = view_sum / float(std::max<std::size_t>(nv, 1));
-  if (min_support < 0 && rules) {
-    const std::vector<float> sigma = median_sigmas(rs.cams);
-    min_support = default_support_weight(sigma.data(), int(sigma.size()), 0.5f * fs.voxel_m, sub_unit_fill);
-  }
-  if (min_support > 0) std::printf("support rule: both voxels of a crossing hold >= %d weight units\n", min_support);
-  request.support_weight = uint8_t(min_support > 0 ? min_support : 0);
   const std::size_t cap = std::min<std::size_t>(board.points_max, board.scene_points_max);
   std::size_t count = 0;
   const Status xs = extract_points(core.volume, core.buffers.points, cap, count, request.support_weight);
