@@ -22,7 +22,7 @@
 #include "edgefuse/memory/arena.hpp"
 #include "edgefuse/tracking/pyramid.hpp"
 #include "fuse_options.hpp"
-#include "parallel_tsdf.hpp"
+#include "edgefuse/pipeline/kernels.hpp"
 
 using namespace edgefuse;
 using namespace edgefuse::cli;
@@ -230,19 +230,19 @@ int main(int argc, char** argv) {
   if (cast && cast_threads > 1) {
     // The same casts spread over a worker pool (started here, before the timed loop): wall clock
     // per raycast, and the CPU time of all threads, which shows what the split costs.
-    WorkerPool pool;
-    pool.start(cast_threads);
+    PoolRunners threads;
+    threads.start(cast_threads);
     double wall_ms = 0.0, cpu_ms = 0.0;
     int parallel_casts = 0;
     for (int r = 0; r < reps; ++r)
       for (std::size_t i = 0; i < n; ++i) {
         const double w0 = clock_ms(CLOCK_MONOTONIC), c0 = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
-        raycast_parallel<real_t>(pool, core.volume, cast_intr, seq.frames[i].T_world_cam, cast_maps);
+        raycast_frame<real_t>(threads.runners().tsdf, core.volume, cast_intr, seq.frames[i].T_world_cam, cast_maps);
         wall_ms += clock_ms(CLOCK_MONOTONIC) - w0;
         cpu_ms += clock_ms(CLOCK_PROCESS_CPUTIME_ID) - c0;
         ++parallel_casts;
       }
-    pool.stop();
+    threads.pool.stop();
     std::printf("raycast on %d threads: %.2f ms wall, %.2f ms CPU of all threads per raycast (%d casts)\n", cast_threads,
                 wall_ms / std::max(parallel_casts, 1), cpu_ms / std::max(parallel_casts, 1), parallel_casts);
   }

@@ -18,7 +18,6 @@
 #include "edgefuse/tsdf/colour_pass.hpp"
 #include "edgefuse/tsdf/extract.hpp"
 #include "edgefuse/tsdf/integrate_profile.hpp"
-#include "parallel_tsdf.hpp"
 #include "rig_fusion.hpp"
 
 namespace edgefuse::cli {
@@ -190,10 +189,10 @@ int cmd_fuse_rig(int argc, char** argv) {
     std::printf("sub-unit fill: samples below half a unit fill a voxel up to %d weight units (%s)\n", sub_unit_fill,
                 sub_unit_fill == kSubUnitFillUnits ? "mixed set" : "one sample");
   }
-  WorkerPool pool;
-  pool.start(settings.threads);
+  PoolRunners threads;
+  threads.start(settings.threads);
   const auto t_start = std::chrono::steady_clock::now();
-  if (!push_rig_frames(rs, core, pool, mount, mounted, std::size_t(frames_max), filter, true, sigma_ref,
+  if (!push_rig_frames(rs, core, threads.runners().tsdf, mount, mounted, std::size_t(frames_max), filter, true, sigma_ref,
                        filter_scratch, err, true, laser))
     return fail(err);
   if (paint && ref >= 0 && cams[std::size_t(ref)].seq.colour_registered && core.volume.has_colour()) {
@@ -210,7 +209,7 @@ int cmd_fuse_rig(int argc, char** argv) {
     }
     std::printf("%s: colour painted onto the fused surface from %zu frames\n", cam.seq.sensor_name.c_str(), n);
   }
-  pool.stop();
+  threads.pool.stop();
   const double fuse_ms = ms_since(t_start);
 
   int min_support = 0;

@@ -251,7 +251,7 @@ bool fuse_rig_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Failure
   const std::vector<char> mounted(rs.cams.size(), 0);
   PoolRunners threads;
   threads.start(fs.threads);
-  if (!push_rig_frames(rs, core, threads.pool, mount, mounted, std::size_t(o.frames_max), !args.has("no-filter"),
+  if (!push_rig_frames(rs, core, threads.runners().tsdf, mount, mounted, std::size_t(o.frames_max), !args.has("no-filter"),
                        false, args.has("no-trust") ? 0.0f : 0.5f * fs.voxel_m, filter_scratch, err, true))
     return fail(f, err);
   threads.pool.stop();

@@ -10,7 +10,7 @@
 #include "edgefuse/tsdf/integrate.hpp"
 #include "edgefuse/tsdf/integrate_profile.hpp"
 #include "edgefuse/tsdf/raycast.hpp"
-#include "parallel_tsdf.hpp"
+#include "edgefuse/pipeline/kernels.hpp"
 
 namespace edgefuse::cli {
 
@@ -389,7 +389,7 @@ bool plan_sub_unit_fill(RigSensors& rs, bool filter, float sigma_ref_m, ImageVie
   return true;
 }
 
-bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const std::vector<Pose>& mount,
+bool push_rig_frames(RigSensors& rs, CoreSetup& core, const RowRunner* runner, const std::vector<Pose>& mount,
                      const std::vector<char>& mounted, std::size_t frames_max, bool filter, bool colour_ref,
                      float sigma_ref_m, ImageView<uint16_t> filter_scratch, std::string& err, bool verbose,
                      const LaserPushOptions& laser) {
@@ -414,7 +414,7 @@ bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const st
       }
       DepthFrame f;
       if (!cam.stage(i, filter, colour, sigma_ref_m, filter_scratch, f, err)) return false;
-      const Status s = integrate_parallel<real_t>(pool, core.volume, cam.seq.intr, cam.ray_norms, f, T, cam.scratch);
+      const Status s = integrate_frame<real_t>(runner, core.volume, cam.seq.intr, cam.ray_norms, f, T, cam.scratch);
       if (s != Status::kOk) {
         err = cam.seq.frames[i].depth_path + ": " + to_string(s);
         return false;

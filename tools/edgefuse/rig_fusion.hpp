@@ -140,13 +140,13 @@ bool place_rig_volume(RigSensors& rs, FuseSettings& settings, std::string& err);
 
 //! Pushes every camera's frames (its ground-truth poses, or the reference camera's pose at the same
 //! instant times `mount[c]` where `mounted[c]`), then every line scanner's profiles (own poses).
-//! \param rs bound sensors  \param core core with the volume made  \param pool integration workers
+//! \param rs bound sensors  \param core core with the volume made  \param runner integration threads (null: this one)
 //! \param mount T_ref_cam per camera  \param mounted whether to use it
 //! \param frames_max frames per camera  \param filter pre-filter the depth  \param colour_ref integrate the
 //! reference camera's colour  \param sigma_ref_m trust reference noise (0: equal weights)
 //! \param filter_scratch spare image  \param err error text  \param verbose one line per sensor
 //! \param laser line scanners: patch registration (laser_push.hpp; default: recorded poses)
-bool push_rig_frames(RigSensors& rs, CoreSetup& core, WorkerPool& pool, const std::vector<Pose>& mount,
+bool push_rig_frames(RigSensors& rs, CoreSetup& core, const RowRunner* runner, const std::vector<Pose>& mount,
                      const std::vector<char>& mounted, std::size_t frames_max, bool filter, bool colour_ref,
                      float sigma_ref_m, ImageView<uint16_t> filter_scratch, std::string& err, bool verbose,
                      const LaserPushOptions& laser = LaserPushOptions());
