@@ -22,7 +22,7 @@
 #include "edgefuse/memory/arena.hpp"
 #include "edgefuse/tracking/pyramid.hpp"
 #include "fuse_options.hpp"
-#include "parallel_tsdf.hpp"
+#include "edgefuse/hal/platform/threads/parallel_tsdf.hpp"
 
 using namespace edgefuse;
 using namespace edgefuse::cli;

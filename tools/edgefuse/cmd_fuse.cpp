@@ -13,7 +13,7 @@
 #include "edgefuse/io/dataset.hpp"
 #include "edgefuse/io/mesh_collector.hpp"
 #include "edgefuse/tsdf/extract.hpp"
-#include "parallel_tsdf.hpp"
+#include "edgefuse/hal/platform/threads/parallel_tsdf.hpp"
 
 namespace edgefuse::cli {
 namespace {

@@ -18,7 +18,7 @@
 #include "edgefuse/tsdf/colour_pass.hpp"
 #include "edgefuse/tsdf/extract.hpp"
 #include "edgefuse/tsdf/integrate_profile.hpp"
-#include "parallel_tsdf.hpp"
+#include "edgefuse/hal/platform/threads/parallel_tsdf.hpp"
 #include "rig_fusion.hpp"
 
 namespace edgefuse::cli {

@@ -24,7 +24,7 @@
 #include "edgefuse/localize/localizer.hpp"
 #include "edgefuse/tsdf/extract.hpp"
 #include "localize_io.hpp"
-#include "parallel_tsdf.hpp"
+#include "edgefuse/hal/platform/threads/parallel_tsdf.hpp"
 #include "rig_fusion.hpp"
 
 namespace edgefuse::cli {

@@ -18,8 +18,8 @@
 #include "edgefuse/io/dataset.hpp"
 #include "edgefuse/io/trajectory.hpp"
 #include "edgefuse/tracking/tracker.hpp"
-#include "parallel_tsdf.hpp"
-#include "pool_row_runner.hpp"
+#include "edgefuse/hal/platform/threads/parallel_tsdf.hpp"
+#include "edgefuse/hal/platform/threads/pool_row_runner.hpp"
 
 namespace edgefuse::cli {
 namespace {

@@ -10,7 +10,7 @@
 #include "edgefuse/tsdf/integrate.hpp"
 #include "edgefuse/tsdf/integrate_profile.hpp"
 #include "edgefuse/tsdf/raycast.hpp"
-#include "parallel_tsdf.hpp"
+#include "edgefuse/hal/platform/threads/parallel_tsdf.hpp"
 
 namespace edgefuse::cli {
 

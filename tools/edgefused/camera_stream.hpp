@@ -21,10 +21,10 @@
 #include "edgefuse/fusion/fusion_rules.hpp"
 #include "edgefuse/sensor/noise_model.hpp"
 #include "edgefuse/tracking/pyramid.hpp"
-#include "hal/acquisition/acquisition_counters.hpp"
-#include "hal/acquisition/camera_worker.hpp"
-#include "hal/acquisition/frame_channel.hpp"
-#include "hal/acquisition/frame_pool.hpp"
+#include "edgefuse/hal/acquisition/acquisition_counters.hpp"
+#include "edgefuse/hal/acquisition/camera_worker.hpp"
+#include "edgefuse/hal/acquisition/frame_channel.hpp"
+#include "edgefuse/hal/acquisition/frame_pool.hpp"
 
 namespace edgefuse::wire {
 

@@ -19,9 +19,9 @@
 #include "edgefuse/fusion/fusion_rules.hpp"
 #include "edgefuse/tsdf/extract.hpp"
 #include "edgefuse/tsdf/integrate_profile.hpp"
-#include "hal/posix/monotonic_clock.hpp"
+#include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
 #include "localize_io.hpp"
-#include "parallel_tsdf.hpp"
+#include "edgefuse/hal/platform/threads/parallel_tsdf.hpp"
 #include "edgefuse/tracking/pyramid.hpp"
 
 namespace edgefuse::wire {

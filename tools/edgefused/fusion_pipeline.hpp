@@ -57,8 +57,8 @@
 #include "edgefuse/tracking/tracker.hpp"
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/runtime/calibration.hpp"
-#include "hal/devices/hal_devices.hpp"
-#include "worker_pool.hpp"
+#include "edgefuse/hal/devices/hal_devices.hpp"
+#include "edgefuse/hal/platform/threads/worker_pool.hpp"
 
 namespace edgefuse::wire {
 
