@@ -8,7 +8,7 @@
 
 #include <cstddef>
 
-#include "edgefuse/memory/memmap.hpp"
+#include "edgefuse/memory/acquisition_pools.hpp"
 #include "edgefuse/hal/acquisition/frame_channel.hpp"
 
 namespace edgefuse::hal {
