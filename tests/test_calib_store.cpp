@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "edgefuse/hal/runtime/calib_file_store.hpp"
+#include "edgefuse/hal/platform/config/calib_file_store.hpp"
 
 #include <CppUTest/TestHarness.h>
 

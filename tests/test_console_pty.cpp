@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "edgefuse/hal/link/serial_port.hpp"
+#include "edgefuse/hal/platform/serial_sockets/serial_port.hpp"
 #include "edgefuse/runtime/console.hpp"
 
 #include <CppUTest/TestHarness.h>

@@ -5,7 +5,7 @@
 
 #include "edgefuse/io/camera_toml.hpp"
 #include "edgefuse/io/rig.hpp"
-#include "edgefuse/io/toml_guard.hpp"
+#include "edgefuse/hal/platform/config/toml_guard.hpp"
 #include "formats_test_util.hpp"
 
 using namespace edgefuse;

@@ -15,7 +15,7 @@
 #include <string>
 
 #include "calib_store_io.hpp"
-#include "edgefuse/hal/runtime/calib_file_store.hpp"
+#include "edgefuse/hal/platform/config/calib_file_store.hpp"
 
 #include <CppUTest/TestHarness.h>
 

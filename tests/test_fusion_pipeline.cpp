@@ -13,8 +13,8 @@
 #include "edgefuse/board_config.hpp"
 #include "edgefuse/fusion/fusion_rules.hpp"
 #include "fusion_pipeline.hpp"
-#include "hal/sim/fault_camera.hpp"
-#include "hal/sim/sim_depth_camera.hpp"
+#include "edgefuse/hal/sim/fault_camera.hpp"
+#include "edgefuse/hal/sim/sim_depth_camera.hpp"
 
 #include <CppUTest/TestHarness.h>
 

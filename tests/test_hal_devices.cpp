@@ -5,8 +5,8 @@
 
 #include "edgefuse/board_config.hpp"
 #include "edgefuse/io/board_hal.hpp"
-#include "hal/devices/hal_devices.hpp"
-#include "hal/posix/monotonic_clock.hpp"
+#include "edgefuse/hal/devices/hal_devices.hpp"
+#include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
 #include "test_support.hpp"
 
 using namespace edgefuse;

@@ -1,9 +1,9 @@
 // The gpiod trigger backend against a fake libgpiod: kernel stamps carried through, software
 // debounce (libgpiod 1.6) or the kernel's (libgpiod 2), EINTR, timeouts, a vanished chip, the
 // output line's pulse; and the real libgpiod 1.6 reporting a missing chip as kNoDevice.
-#include "hal/gpiod/fake_gpiod_api.hpp"
-#include "hal/gpiod/gpiod_trigger.hpp"
-#include "hal/null/null_backends.hpp"
+#include "edgefuse/hal/gpiod/fake_gpiod_api.hpp"
+#include "edgefuse/hal/gpiod/gpiod_trigger.hpp"
+#include "edgefuse/hal/null/null_backends.hpp"
 #include "test_support.hpp"
 
 using namespace edgefuse;

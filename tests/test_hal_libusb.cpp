@@ -3,9 +3,9 @@
 // polling fallback) and against the real libusb (starts and enumerates on this host).
 #include <cstring>
 
-#include "hal/libusb/fake_usb_api.hpp"
-#include "hal/libusb/usb_device_monitor.hpp"
-#include "hal/null/null_backends.hpp"
+#include "edgefuse/hal/libusb/fake_usb_api.hpp"
+#include "edgefuse/hal/libusb/usb_device_monitor.hpp"
+#include "edgefuse/hal/null/null_backends.hpp"
 #include "test_support.hpp"
 
 using namespace edgefuse;

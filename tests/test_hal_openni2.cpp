@@ -8,9 +8,9 @@
 #include <string>
 #include <thread>
 
-#include "hal/acquisition/camera_worker.hpp"
-#include "hal/openni2/openni2_depth_camera.hpp"
-#include "hal/posix/monotonic_clock.hpp"
+#include "edgefuse/hal/acquisition/camera_worker.hpp"
+#include "edgefuse/hal/openni2/openni2_depth_camera.hpp"
+#include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
 #include "oni_test_recording.hpp"
 #include "test_support.hpp"
 

@@ -7,11 +7,11 @@
 
 #include "edgefuse/io/dataset.hpp"
 #include "edgefuse/io/rig.hpp"
-#include "hal/acquisition/frame_pairer.hpp"
-#include "hal/null/null_backends.hpp"
-#include "hal/posix/monotonic_clock.hpp"
-#include "hal/replay/replay_depth_camera.hpp"
-#include "hal/replay/replay_line_scanner.hpp"
+#include "edgefuse/hal/acquisition/frame_pairer.hpp"
+#include "edgefuse/hal/null/null_backends.hpp"
+#include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
+#include "edgefuse/hal/replay/replay_depth_camera.hpp"
+#include "edgefuse/hal/replay/replay_line_scanner.hpp"
 #include "test_support.hpp"
 
 using namespace edgefuse;

@@ -5,11 +5,11 @@
 #include <cstdint>
 #include <vector>
 
-#include "hal/null/null_backends.hpp"
-#include "hal/sim/sim_depth_camera.hpp"
-#include "hal/sim/sim_line_scanner.hpp"
-#include "hal/sim/sim_position.hpp"
-#include "hal/sim/sim_trigger.hpp"
+#include "edgefuse/hal/null/null_backends.hpp"
+#include "edgefuse/hal/sim/sim_depth_camera.hpp"
+#include "edgefuse/hal/sim/sim_line_scanner.hpp"
+#include "edgefuse/hal/sim/sim_position.hpp"
+#include "edgefuse/hal/sim/sim_trigger.hpp"
 #include "test_support.hpp"
 
 using namespace edgefuse;

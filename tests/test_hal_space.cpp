@@ -7,10 +7,10 @@
 #include <thread>
 
 #include "edgefuse/tsdf/integrate.hpp"
-#include "hal/acquisition/camera_worker.hpp"
-#include "hal/posix/monotonic_clock.hpp"
-#include "hal/sim/fault_camera.hpp"
-#include "hal/sim/sim_depth_camera.hpp"
+#include "edgefuse/hal/acquisition/camera_worker.hpp"
+#include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
+#include "edgefuse/hal/sim/fault_camera.hpp"
+#include "edgefuse/hal/sim/sim_depth_camera.hpp"
 #include "scenes.hpp"
 #include "test_support.hpp"
 

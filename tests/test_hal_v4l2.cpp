@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "hal/v4l2/fake_v4l2_sys.hpp"
-#include "hal/v4l2/v4l2_depth_camera.hpp"
+#include "edgefuse/hal/v4l2/fake_v4l2_sys.hpp"
+#include "edgefuse/hal/v4l2/v4l2_depth_camera.hpp"
 #include "test_support.hpp"
 
 using namespace edgefuse;

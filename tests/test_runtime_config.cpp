@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <string>
 
-#include "edgefuse/hal/runtime/config_toml.hpp"
+#include "edgefuse/hal/platform/config/config_toml.hpp"
 #include "edgefuse/runtime/params.hpp"
 
 #include <CppUTest/TestHarness.h>

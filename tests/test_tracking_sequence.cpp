@@ -9,8 +9,8 @@
 
 #include "alloc_counter.hpp"
 #include "test_tracking_rig.hpp"
-#include "pool_row_runner.hpp"
-#include "worker_pool.hpp"
+#include "edgefuse/hal/platform/threads/pool_row_runner.hpp"
+#include "edgefuse/hal/platform/threads/worker_pool.hpp"
 #include "test_support.hpp"
 
 using namespace edgefuse;

@@ -1,4 +1,4 @@
-#include "hal/acquisition/acquisition_counters.hpp"
+#include "edgefuse/hal/acquisition/acquisition_counters.hpp"
 
 #include <cstdio>
 

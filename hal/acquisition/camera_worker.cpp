@@ -1,4 +1,4 @@
-#include "hal/acquisition/camera_worker.hpp"
+#include "edgefuse/hal/acquisition/camera_worker.hpp"
 
 #include <chrono>
 

@@ -1,4 +1,4 @@
-#include "hal/acquisition/frame_checks.hpp"
+#include "edgefuse/hal/acquisition/frame_checks.hpp"
 
 namespace edgefuse::hal {
 

@@ -1,4 +1,4 @@
-#include "hal/acquisition/frame_pairer.hpp"
+#include "edgefuse/hal/acquisition/frame_pairer.hpp"
 
 namespace edgefuse::hal {
 

@@ -1,4 +1,4 @@
-#include "hal/acquisition/scanner_worker.hpp"
+#include "edgefuse/hal/acquisition/scanner_worker.hpp"
 
 #include <chrono>
 

@@ -1,26 +1,26 @@
-#include "hal/devices/hal_devices.hpp"
+#include "edgefuse/hal/devices/hal_devices.hpp"
 
 #include "edgefuse/io/dataset.hpp"
-#include "hal/null/null_backends.hpp"
-#include "hal/replay/replay_depth_camera.hpp"
-#include "hal/sim/sim_depth_camera.hpp"
+#include "edgefuse/hal/null/null_backends.hpp"
+#include "edgefuse/hal/replay/replay_depth_camera.hpp"
+#include "edgefuse/hal/sim/sim_depth_camera.hpp"
 #include "edgefuse/io/rig.hpp"
-#include "hal/replay/replay_line_scanner.hpp"
-#include "hal/sim/sim_device_monitor.hpp"
-#include "hal/sim/sim_line_scanner.hpp"
-#include "hal/sim/sim_position.hpp"
-#include "hal/sim/sim_trigger.hpp"
+#include "edgefuse/hal/replay/replay_line_scanner.hpp"
+#include "edgefuse/hal/sim/sim_device_monitor.hpp"
+#include "edgefuse/hal/sim/sim_line_scanner.hpp"
+#include "edgefuse/hal/sim/sim_position.hpp"
+#include "edgefuse/hal/sim/sim_trigger.hpp"
 #if EDGEFUSE_HAVE_GPIOD
-#include "hal/gpiod/gpiod_trigger.hpp"
+#include "edgefuse/hal/gpiod/gpiod_trigger.hpp"
 #endif
 #if EDGEFUSE_HAVE_OPENNI2
-#include "hal/openni2/openni2_depth_camera.hpp"
+#include "edgefuse/hal/openni2/openni2_depth_camera.hpp"
 #endif
 #if EDGEFUSE_HAVE_V4L2
-#include "hal/v4l2/v4l2_depth_camera.hpp"
+#include "edgefuse/hal/v4l2/v4l2_depth_camera.hpp"
 #endif
 #if EDGEFUSE_HAVE_LIBUSB
-#include "hal/libusb/usb_device_monitor.hpp"
+#include "edgefuse/hal/libusb/usb_device_monitor.hpp"
 #endif
 
 namespace edgefuse::hal {

@@ -4,7 +4,7 @@
 #include <cerrno>
 #include <ctime>
 
-#include "hal/gpiod/gpiod_api.hpp"
+#include "edgefuse/hal/gpiod/gpiod_api.hpp"
 
 namespace edgefuse::hal {
 

@@ -15,7 +15,7 @@
 #include <cstring>
 #include <new>
 
-#include "hal/gpiod/gpiod_api.hpp"
+#include "edgefuse/hal/gpiod/gpiod_api.hpp"
 
 namespace edgefuse::hal {
 

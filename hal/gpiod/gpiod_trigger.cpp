@@ -1,4 +1,4 @@
-#include "hal/gpiod/gpiod_trigger.hpp"
+#include "edgefuse/hal/gpiod/gpiod_trigger.hpp"
 
 #include <cerrno>
 

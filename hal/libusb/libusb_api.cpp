@@ -1,7 +1,7 @@
 // libusb 1.0 behind UsbApi.
 #include <libusb.h>
 
-#include "hal/libusb/usb_api.hpp"
+#include "edgefuse/hal/libusb/usb_api.hpp"
 
 namespace edgefuse::hal {
 

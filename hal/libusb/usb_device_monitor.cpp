@@ -1,4 +1,4 @@
-#include "hal/libusb/usb_device_monitor.hpp"
+#include "edgefuse/hal/libusb/usb_device_monitor.hpp"
 
 #include <cstdio>
 #include <cstring>

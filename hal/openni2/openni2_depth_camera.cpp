@@ -1,4 +1,4 @@
-#include "hal/openni2/openni2_depth_camera.hpp"
+#include "edgefuse/hal/openni2/openni2_depth_camera.hpp"
 
 #include <OpenNI.h>
 

@@ -1,4 +1,4 @@
-#include "hal/replay/replay_depth_camera.hpp"
+#include "edgefuse/hal/replay/replay_depth_camera.hpp"
 
 #include <algorithm>
 #include <cmath>

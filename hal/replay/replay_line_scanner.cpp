@@ -1,4 +1,4 @@
-#include "hal/replay/replay_line_scanner.hpp"
+#include "edgefuse/hal/replay/replay_line_scanner.hpp"
 
 #include <cmath>
 #include <cstring>

@@ -1,4 +1,4 @@
-#include "hal/sim/fault_camera.hpp"
+#include "edgefuse/hal/sim/fault_camera.hpp"
 
 #include <cstring>
 

@@ -1,4 +1,4 @@
-#include "hal/sim/sim_depth_camera.hpp"
+#include "edgefuse/hal/sim/sim_depth_camera.hpp"
 
 #include <algorithm>
 #include <cmath>

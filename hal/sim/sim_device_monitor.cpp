@@ -1,4 +1,4 @@
-#include "hal/sim/sim_device_monitor.hpp"
+#include "edgefuse/hal/sim/sim_device_monitor.hpp"
 
 #include <chrono>
 

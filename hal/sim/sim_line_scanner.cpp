@@ -1,4 +1,4 @@
-#include "hal/sim/sim_line_scanner.hpp"
+#include "edgefuse/hal/sim/sim_line_scanner.hpp"
 
 #include <cmath>
 

@@ -1,4 +1,4 @@
-#include "hal/sim/sim_scene.hpp"
+#include "edgefuse/hal/sim/sim_scene.hpp"
 
 #include <cmath>
 

@@ -1,4 +1,4 @@
-#include "hal/sim/sim_trigger.hpp"
+#include "edgefuse/hal/sim/sim_trigger.hpp"
 
 #include <chrono>
 

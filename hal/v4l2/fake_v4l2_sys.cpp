@@ -1,4 +1,4 @@
-#include "hal/v4l2/fake_v4l2_sys.hpp"
+#include "edgefuse/hal/v4l2/fake_v4l2_sys.hpp"
 
 #include <linux/videodev2.h>
 #include <sys/mman.h>

@@ -1,4 +1,4 @@
-#include "hal/v4l2/v4l2_depth_camera.hpp"
+#include "edgefuse/hal/v4l2/v4l2_depth_camera.hpp"
 
 #include <fcntl.h>
 #include <linux/videodev2.h>

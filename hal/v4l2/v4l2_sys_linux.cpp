@@ -3,7 +3,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
-#include "hal/v4l2/v4l2_sys.hpp"
+#include "edgefuse/hal/v4l2/v4l2_sys.hpp"
 
 namespace edgefuse::hal {
 

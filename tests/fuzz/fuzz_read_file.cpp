@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "edgefuse/hal/runtime/config_toml.hpp"
+#include "edgefuse/hal/platform/config/config_toml.hpp"
 #include "edgefuse/io/board_hal.hpp"
 #include "edgefuse/io/camera_toml.hpp"
 #include "edgefuse/io/pcd.hpp"

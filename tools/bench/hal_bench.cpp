@@ -14,15 +14,15 @@
 #include <thread>
 
 #include "edgefuse/io/dataset.hpp"
-#include "hal/acquisition/frame_channel.hpp"
-#include "hal/acquisition/frame_checks.hpp"
-#include "hal/null/null_backends.hpp"
-#include "hal/posix/monotonic_clock.hpp"
-#include "hal/replay/replay_depth_camera.hpp"
-#include "hal/sim/sim_depth_camera.hpp"
-#include "hal/sim/sim_line_scanner.hpp"
-#include "hal/sim/sim_position.hpp"
-#include "hal/sim/sim_trigger.hpp"
+#include "edgefuse/hal/acquisition/frame_channel.hpp"
+#include "edgefuse/hal/acquisition/frame_checks.hpp"
+#include "edgefuse/hal/null/null_backends.hpp"
+#include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
+#include "edgefuse/hal/replay/replay_depth_camera.hpp"
+#include "edgefuse/hal/sim/sim_depth_camera.hpp"
+#include "edgefuse/hal/sim/sim_line_scanner.hpp"
+#include "edgefuse/hal/sim/sim_position.hpp"
+#include "edgefuse/hal/sim/sim_trigger.hpp"
 
 using namespace edgefuse;
 using namespace edgefuse::hal;

@@ -5,7 +5,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "edgefuse/io/toml_guard.hpp"
+#include "edgefuse/hal/platform/config/toml_guard.hpp"
 
 #include "edgefuse/board_config.hpp"
 

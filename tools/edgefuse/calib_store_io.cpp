@@ -1,7 +1,7 @@
 #include "calib_store_io.hpp"
 
 
-#include "edgefuse/hal/runtime/calib_file_store.hpp"
+#include "edgefuse/hal/platform/config/calib_file_store.hpp"
 #include "edgefuse/runtime/calibration.hpp"
 
 namespace edgefuse::cli {

@@ -16,12 +16,12 @@
 #include "edgefuse/board_config.hpp"
 #include "edgefuse/io/board_hal.hpp"
 #include "edgefuse/memory/arena.hpp"
-#include "hal/acquisition/camera_worker.hpp"
-#include "hal/acquisition/frame_pairer.hpp"
-#include "hal/acquisition/frame_pool.hpp"
-#include "hal/acquisition/scanner_worker.hpp"
-#include "hal/devices/hal_devices.hpp"
-#include "hal/posix/monotonic_clock.hpp"
+#include "edgefuse/hal/acquisition/camera_worker.hpp"
+#include "edgefuse/hal/acquisition/frame_pairer.hpp"
+#include "edgefuse/hal/acquisition/frame_pool.hpp"
+#include "edgefuse/hal/acquisition/scanner_worker.hpp"
+#include "edgefuse/hal/devices/hal_devices.hpp"
+#include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
 
 namespace edgefuse::cli {
 

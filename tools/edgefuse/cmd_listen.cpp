@@ -15,8 +15,8 @@
 
 #include "args.hpp"
 #include "commands.hpp"
-#include "edgefuse/hal/link/serial_port.hpp"
-#include "edgefuse/hal/link/sockets.hpp"
+#include "edgefuse/hal/platform/serial_sockets/serial_port.hpp"
+#include "edgefuse/hal/platform/serial_sockets/sockets.hpp"
 #include "edgefuse/link/messages.hpp"
 
 namespace edgefuse::cli {

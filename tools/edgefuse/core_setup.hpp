@@ -14,8 +14,8 @@
 #include "edgefuse/tsdf/integrate.hpp"
 #include "edgefuse/tsdf/raycast.hpp"
 #include "edgefuse/tsdf/volume.hpp"
-#include "pool_row_runner.hpp"
-#include "worker_pool.hpp"
+#include "edgefuse/hal/platform/threads/pool_row_runner.hpp"
+#include "edgefuse/hal/platform/threads/worker_pool.hpp"
 
 namespace edgefuse::cli {
 

@@ -7,7 +7,7 @@
 
 #include "edgefuse/io/cloud.hpp"
 #include "edgefuse/localize/localizer.hpp"
-#include "worker_pool.hpp"
+#include "edgefuse/hal/platform/threads/worker_pool.hpp"
 
 namespace edgefuse::cli {
 

@@ -15,7 +15,7 @@
 #include "edgefuse/sensor/noise_model.hpp"
 #include "edgefuse/tracking/pyramid.hpp"
 #include "laser_push.hpp"
-#include "worker_pool.hpp"
+#include "edgefuse/hal/platform/threads/worker_pool.hpp"
 
 namespace edgefuse::cli {
 

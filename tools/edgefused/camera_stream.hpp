@@ -18,10 +18,10 @@
 
 #include "edgefuse/memory/memmap.hpp"
 #include "edgefuse/pipeline/camera_slot.hpp"
-#include "hal/acquisition/acquisition_counters.hpp"
-#include "hal/acquisition/camera_worker.hpp"
-#include "hal/acquisition/frame_channel.hpp"
-#include "hal/acquisition/frame_pool.hpp"
+#include "edgefuse/hal/acquisition/acquisition_counters.hpp"
+#include "edgefuse/hal/acquisition/camera_worker.hpp"
+#include "edgefuse/hal/acquisition/frame_channel.hpp"
+#include "edgefuse/hal/acquisition/frame_pool.hpp"
 
 namespace edgefuse::wire {
 

@@ -17,7 +17,7 @@
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/memory/arena.hpp"
 #include "edgefuse/pipeline/localization_job.hpp"
-#include "hal/posix/monotonic_clock.hpp"
+#include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
 #include "localize_io.hpp"
 
 namespace edgefuse::wire {

@@ -56,9 +56,9 @@
 #include "edgefuse/runtime/pipeline.hpp"
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/runtime/calibration.hpp"
-#include "hal/devices/hal_devices.hpp"
-#include "pool_row_runner.hpp"
-#include "worker_pool.hpp"
+#include "edgefuse/hal/devices/hal_devices.hpp"
+#include "edgefuse/hal/platform/threads/pool_row_runner.hpp"
+#include "edgefuse/hal/platform/threads/worker_pool.hpp"
 
 namespace edgefuse::wire {
 

@@ -15,11 +15,11 @@
 #include <string>
 
 #include "board_defaults.hpp"
-#include "edgefuse/hal/link/serial_port.hpp"
-#include "edgefuse/hal/link/sockets.hpp"
-#include "edgefuse/hal/runtime/calib_file_store.hpp"
-#include "edgefuse/hal/runtime/config_toml.hpp"
-#include "edgefuse/hal/runtime/sd_notify.hpp"
+#include "edgefuse/hal/platform/serial_sockets/serial_port.hpp"
+#include "edgefuse/hal/platform/serial_sockets/sockets.hpp"
+#include "edgefuse/hal/platform/config/calib_file_store.hpp"
+#include "edgefuse/hal/platform/config/config_toml.hpp"
+#include "edgefuse/hal/platform/systemd/sd_notify.hpp"
 #include "edgefuse/link/publisher.hpp"
 #include "edgefuse/memory/arena.hpp"
 #include "edgefuse/runtime/console.hpp"

@@ -17,7 +17,7 @@
 #include "edgefuse/board_config.hpp"
 #include "edgefuse/fusion/calibrate_pair.hpp"
 #include "edgefuse/fusion/pose_mean.hpp"
-#include "hal/posix/monotonic_clock.hpp"
+#include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
 #include "fusion_pipeline.hpp"
 
 namespace edgefuse::wire {

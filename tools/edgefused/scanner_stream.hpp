@@ -13,10 +13,10 @@
 
 #include "edgefuse/memory/memmap.hpp"
 #include "edgefuse/sensor/line_scanner.hpp"
-#include "hal/acquisition/acquisition_counters.hpp"
-#include "hal/acquisition/frame_channel.hpp"
-#include "hal/acquisition/frame_pool.hpp"
-#include "hal/acquisition/scanner_worker.hpp"
+#include "edgefuse/hal/acquisition/acquisition_counters.hpp"
+#include "edgefuse/hal/acquisition/frame_channel.hpp"
+#include "edgefuse/hal/acquisition/frame_pool.hpp"
+#include "edgefuse/hal/acquisition/scanner_worker.hpp"
 
 namespace edgefuse::wire {
 

@@ -10,6 +10,7 @@
 #include "edgefuse/core/status.hpp"
 #include "edgefuse/math/pose.hpp"
 #include "edgefuse/localize/localizer.hpp"  // localisation
+#include "edgefuse/memory/acquisition_pools.hpp"
 #include "edgefuse/memory/capacities.hpp"
 #include "edgefuse/tracking/icp.hpp"
 #include "edgefuse/tsdf/extract.hpp"
@@ -61,7 +62,7 @@ enum class Region : int {
   // raycast: per-brick block masks
   kBlockMasks,      //!< per brick: which of its 64 blocks of 2^3 voxels hold a distance < +1
   // acquisition frame pools (HAL): kFramePoolSlots frames per sensor, filled by the
-  // device threads and handed to processing (hal/acquisition/frame_pool.hpp)
+  // device threads and handed to processing (edgefuse/hal/acquisition/frame_pool.hpp)
   kAcqDepth,        //!< pooled depth (uint16)
   kAcqColour,       //!< pooled registered colour
   kAcqAmplitude,    //!< pooled ToF amplitude (uint16)
@@ -81,14 +82,6 @@ struct MemoryMap {
 };
 
 inline constexpr std::size_t kRegionAlign = 64;  //!< every region starts on a cache line
-//! Frames in each sensor's acquisition pool: the device fills one, a stereo pairer holds up to
-//! three of a stream, processing one more, and one is in flight (hal/acquisition).
-inline constexpr int kFramePoolSlots = 6;
-// line-scanner profile pool: the profiles that wait between two main-loop ticks of
-// edgefused (15, the most the channel's 16-entry rings hold: 150 ms at 100 Hz), each of up to the
-// board's widest image in beams (a profile's ray table takes a sensor slot of image_width_max x
-// image_height_max entries, so no scanner the board can place has more beams).
-inline constexpr int kProfilePoolSlots = 15;
 
 constexpr uint64_t align_up(uint64_t v, uint64_t a) { return (v + a - 1) / a * a; }
 
@@ -157,25 +150,6 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   m.total_bytes = total;
   return m;
 }
-
-//! The acquisition frame pools (HAL): `pools` pools (one per sensor) of `slots` frames
-//! of up to `pixels_per_slot` pixels each, slot after slot, pool after pool.
-struct FramePoolBuffers {
-  uint16_t* depth = nullptr;
-  Rgb8* colour = nullptr;
-  uint16_t* amplitude = nullptr;
-  std::size_t pixels_per_slot = 0;
-  int slots = 0;
-  int pools = 0;
-};
-
-//! The line scanner's profile pool: `slots` profiles of up to `beams_max` ranges each,
-//! slot after slot.
-struct ProfilePoolBuffers {
-  float* ranges_m = nullptr;
-  int beams_max = 0;
-  int slots = 0;
-};
 
 //! Views of every region of one board's arena, carved once at start-up.
 struct CoreBuffers {
