@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""End-to-end on loopback: edgefused (host-sim, simulated pose source: pipeline.source=simulated) is driven over its console
+"""End-to-end on loopback: the firmware with exact, fixed poses (edgefused_exact_poses, host-sim) is driven over its console
 pseudo-terminal; `edgefuse listen` and tools/listen.py receive the results over TCP and the
 heartbeats over the link pseudo-terminal; the poses must equal the simulated bin's; memory (VmData)
 stays flat over many localisation cycles; SIGTERM stops it cleanly; bad configuration values stop
@@ -22,12 +22,12 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from edgefused_helpers import command, open_raw, vm_data_kib  # noqa: E402
 
 EDGEFUSED, EDGEFUSE, LISTEN_PY, WORK = sys.argv[1:5]
-# This test checks the runtime, console and link with exact poses: it runs the simulated pose
-# source. The real pipeline is tested by edgefused_fusion_e2e.py.
-SIM = ["--set", "pipeline.source=simulated"]
+# This test checks the runtime, console and link with exact poses (tests/firmware/
+# exact_pose_pipeline.cpp). The device pipeline is tested by edgefused_fusion_e2e.py.
+SIM = []
 # Under AddressSanitizer its own bookkeeping maps memory: the flat-memory check is skipped there.
 SANITIZED = len(sys.argv) > 5 and sys.argv[5] == "sanitized"
-# tools/edgefused/sim_pipeline.cpp: kSimObjects (id, t, q, score)
+# tests/firmware/exact_pose_pipeline.cpp: kSimObjects (id, t, q, score)
 TRUTH = {
     1: ((0.412, -0.105, 0.031), (0.0, 0.0, 0.2588190, 0.9659258), 0.93),
     2: ((0.475, 0.020, 0.045), (0.7071068, 0.0, 0.0, 0.7071068), 0.88),

@@ -36,9 +36,7 @@ const ParamDef kParamDefs[kParamCount] = {
      "host-sim: replay this rig set instead of the built-in scene"},
     {"tsdf.voxel_m", ParamType::kFloat, 0.0005, 0.05, "0.002", false, "voxel edge length"},
     {"tsdf.trunc_m", ParamType::kFloat, 0.001, 0.2, "0.008", false, "truncation distance"},
-    // edgefused's pipeline: frame source, models, filters, tracking
-    {"pipeline.source", ParamType::kString, 0, kParamTextMax, "fusion", false,
-     "'fusion' (HAL frames -> filters -> TSDF -> localisation) or 'simulated' (fixed test poses)"},
+    // edgefused's pipeline: models, filters, tracking
     {"localize.models", ParamType::kString, 0, kParamTextMax, "", false,
      "a PLY model or a folder of them ('' : a replayed rig set's models, else model-free segments)"},
     {"filters.bilateral", ParamType::kBool, 0, 1, "false", false,

@@ -15,7 +15,7 @@
 #include <cstring>
 #include <string>
 
-#include "../../tools/edgefused/sim_pipeline.hpp"
+#include "../firmware/exact_pose_pipeline.hpp"
 #include "edgefuse/link/frame.hpp"
 #include "edgefuse/link/messages.hpp"
 #include "edgefuse/link/publisher.hpp"
@@ -123,7 +123,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // Fresh objects for every input: a finding must not depend on the inputs run before it.
   static ParamStore params;
   params = ParamStore();
-  sim::SimPipeline pipeline;
+  edgefuse_test::ExactPosePipeline pipeline;
   MemoryStorage storage;
   CheckedLink link;
   link::LinkPublisher publisher(link);

@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """Recall of edgefused on a replayed rig set (benchmark, prints figures; not a test).
 
-usage: tools/bench/edgefused_recall.py BUILD_TOOLS_DIR RIG_SET WORKDIR [--set KEY=VALUE ...]
-e.g.   tools/bench/edgefused_recall.py build/host/tools ../shared/data/bin_rig_a /tmp/recall --set sensors.fuse=xtion,tof
+usage: tools/bench/edgefused_recall.py BUILD_DIR RIG_SET WORKDIR [--set KEY=VALUE ...]
+e.g.   tools/bench/edgefused_recall.py build/host ../shared/data/bin_rig_a /tmp/recall --set sensors.fuse=xtion,tof
 
 Starts edgefused replaying the set (localize.still_period_s=1), `scan start` on its console pty,
 takes the still-period result with `edgefuse listen --csv`, prints `status` (frames, drops and
@@ -13,11 +13,13 @@ import os, sys, time, subprocess, select, termios, re, signal
 if len(sys.argv) < 4:
     sys.exit(__doc__)
 B = os.path.abspath(sys.argv[1]) + "/"
+EDGEFUSED = B + "src/firmware/edgefused"
+EDGEFUSE = B + "tools/edgefuse"
 RIG = os.path.abspath(sys.argv[2])
 work = os.path.abspath(sys.argv[3]); extra = sys.argv[4:]
 os.makedirs(work, exist_ok=True)
 log = open(work + "/log.txt", "w+")
-d = subprocess.Popen([B + "edgefused", "--set", "link.tcp_port=0", "--set", "link.serial=", "--set", "console.echo=false",
+d = subprocess.Popen([EDGEFUSED, "--set", "link.tcp_port=0", "--set", "link.serial=", "--set", "console.echo=false",
                       "--set", "calib.dir=" + work + "/calib", "--set", "sensors.replay=" + RIG,
                       "--set", "localize.still_period_s=1"] + extra, stdout=log, stderr=subprocess.STDOUT, cwd=work)
 info = {}
@@ -42,7 +44,7 @@ def cmd(line, timeout=30):
     return got.decode(errors="replace")
 models = {int(m.group(1)): m.group(2) for m in re.finditer(r"^(\d+) (\S+)\r$", cmd("model list"), re.M)}
 port = int(info["tcp"].rsplit(":", 1)[1])
-listen = subprocess.Popen([B + "edgefuse", "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "1", "--timeout-s", "200"],
+listen = subprocess.Popen([EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "1", "--timeout-s", "200"],
                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 time.sleep(0.5)
 cmd("scan start")
@@ -53,7 +55,7 @@ est = work + "/poses.txt"
 with open(est, "w") as f:
     for k, r in enumerate(rows):
         f.write("%d %s %s %s\n" % (k + 1, " ".join(r[3:10]), r[10], models.get(int(r[2]), "unknown")))
-ev = subprocess.run([B + "edgefuse", "eval", "poses", est, RIG + "/objects.txt"], capture_output=True, text=True)
+ev = subprocess.run([EDGEFUSE, "eval", "poses", est, RIG + "/objects.txt"], capture_output=True, text=True)
 print(ev.stdout)
 d.send_signal(signal.SIGTERM); d.wait(timeout=30)
 log.seek(0); print("\n".join(l for l in log.read().splitlines() if l.startswith(("localize", "extrinsics", "sensors"))))

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "args.hpp"
-#include "board_defaults.hpp"
+#include "edgefuse/hal/platform/config/board_defaults.hpp"
 #include "calib_store_io.hpp"
 #include "commands.hpp"
 #include "core_setup.hpp"
@@ -163,8 +163,8 @@ int cmd_calibrate(int argc, char** argv) {
     return 2;
   }
   const BoardCapacities& board = build_board();
-  BoardDefaults defaults;
-  if (!read_board_defaults(board.name, defaults, err)) return fail(err);
+  hal::BoardDefaults defaults;
+  if (!hal::read_board_defaults(board.name, defaults, err)) return fail(err);
   FuseSettings settings;
   settings.voxel_m = defaults.voxel_m;
   settings.trunc_m = defaults.trunc_m;

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "args.hpp"
-#include "board_defaults.hpp"
+#include "edgefuse/hal/platform/config/board_defaults.hpp"
 #include "commands.hpp"
 #include "core_setup.hpp"
 #include "edgefuse/io/dataset.hpp"
@@ -23,7 +23,8 @@
 #include "edgefuse/pipeline/localization_job.hpp"
 #include "edgefuse/pipeline/mapper.hpp"
 #include "edgefuse/tsdf/extract.hpp"
-#include "localize_io.hpp"
+#include "edgefuse/hal/platform/threads/pool_parallel_for.hpp"
+#include "edgefuse/io/localize_io.hpp"
 #include "rig_fusion.hpp"
 
 namespace edgefuse::cli {
@@ -167,7 +168,7 @@ bool parse_options(int argc, char** argv, LocalizeOptions& o, Failure& f) {
   std::string config_bin;
   if (o.args.has("config")) {  // models (and the bin) named in a runtime configuration, as edgefused reads them
     std::vector<std::string> config_models;
-    if (!read_localize_config(o.args.get("config"), config_models, config_bin, err))
+    if (!io::read_localize_config(o.args.get("config"), config_models, config_bin, err))
       return fail(f, "--config: " + err, 2);
     if (!o.segments) o.model_files.insert(o.model_files.end(), config_models.begin(), config_models.end());
   }
@@ -176,8 +177,8 @@ bool parse_options(int argc, char** argv, LocalizeOptions& o, Failure& f) {
   if (o.args.has("sensors") && o.args.has("sensor"))
     return fail(f, std::string("give --sensor or --sensors, not both\n") + kUsage, 2);
   const BoardCapacities& board = build_board();
-  BoardDefaults defaults;
-  if (!read_board_defaults(board.name, defaults, err)) return fail(f, err);
+  hal::BoardDefaults defaults;
+  if (!hal::read_board_defaults(board.name, defaults, err)) return fail(f, err);
   o.max_results = board.objects_max;
   o.fuse.voxel_m = defaults.voxel_m;
   o.fuse.trunc_m = defaults.trunc_m;
@@ -193,7 +194,7 @@ bool parse_options(int argc, char** argv, LocalizeOptions& o, Failure& f) {
   o.params.max_per_model = o.max_results;
   const std::string bin_file = o.args.has("bin") ? o.args.get("bin") : config_bin;  // the command line wins
   o.bin_from_config = !bin_file.empty();
-  if (o.bin_from_config && !read_bin_toml(bin_file, o.bin, err)) return fail(f, "--bin: " + err, 2);
+  if (o.bin_from_config && !io::read_bin_toml(bin_file, o.bin, err)) return fail(f, "--bin: " + err, 2);
   return true;
 }
 
@@ -201,7 +202,7 @@ bool load_models(const LocalizeOptions& o, Localizer& loc, Failure& f) {
   std::string err;
   for (const std::string& file : o.model_files) {
     int index = -1;
-    if (!load_model(loc, file, o.params, index, err)) return fail(f, "model " + file + ": " + err);
+    if (!io::load_model(loc, file, o.params, index, err)) return fail(f, "model " + file + ": " + err);
     const ModelInfo& mi = loc.model(index);
     std::printf("model %d: %s, diameter %.1f mm, %u dense samples, %u PPF samples (step %.1f mm), %u table entries\n",
                 index, mi.name, mi.diameter_m * 1e3, mi.dense_count, mi.ppf_count, mi.ppf_step_m * 1e3, mi.entry_count);
@@ -376,7 +377,7 @@ bool load_cloud_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Failu
   std::vector<ScenePoint> pts;
   const double t_normals = cpu_ms();  // normals of a cloud are not part of the pose-list clock: own figure
   std::size_t beyond = 0;
-  if (!cloud_scene_points(sc.cloud, pts, beyond, err)) return fail(f, input + ": " + err);
+  if (!io::cloud_scene_points(sc.cloud, pts, beyond, err)) return fail(f, input + ": " + err);
   if (beyond > 0)
     std::fprintf(stderr, "edgefuse localize: %s: %zu points lie beyond %.0f m of the origin (not a robot cell's "
                  "coordinates): ignored\n", input.c_str(), beyond, double(kLocalizeCoordMaxM));
@@ -462,10 +463,10 @@ bool write_outputs(const LocalizeOptions& o, const Localizer& loc, const Scene& 
   std::string err;
   if (o.segments) {
     const std::string out = o.args.get("out", "labels.pcd");
-    if (!write_segment_labels(out, loc, sc.cloud, sc.surface, sc.core.buffers.points, err)) return fail(f, err);
+    if (!io::write_segment_labels(out, loc, sc.cloud, sc.surface, sc.core.buffers.points, err)) return fail(f, err);
     std::printf("labels -> %s\n", out.c_str());
   } else if (o.args.has("out")) {
-    if (!write_pose_list(o.args.get("out"), loc, count, err)) return fail(f, err);
+    if (!io::write_pose_list(o.args.get("out"), loc, count, err)) return fail(f, err);
     std::printf("poses -> %s\n", o.args.get("out").c_str());
   }
   return true;

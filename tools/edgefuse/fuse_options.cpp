@@ -2,15 +2,15 @@
 
 #include <cstdio>
 
-#include "board_defaults.hpp"
+#include "edgefuse/hal/platform/config/board_defaults.hpp"
 #include "edgefuse/memory/arena.hpp"
 
 namespace edgefuse::cli {
 
 bool board_fuse_settings(FuseSettings& settings, std::string& err) {
   const BoardCapacities& board = build_board();
-  BoardDefaults defaults;
-  if (!read_board_defaults(board.name, defaults, err)) return false;
+  hal::BoardDefaults defaults;
+  if (!hal::read_board_defaults(board.name, defaults, err)) return false;
   settings.voxel_m = defaults.voxel_m;
   settings.trunc_m = defaults.trunc_m;
   settings.max_weight = defaults.max_weight;

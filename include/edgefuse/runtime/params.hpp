@@ -44,7 +44,6 @@ enum ParamId : int {
   kTsdfVoxelM,
   kTsdfTruncM,
   // edgefused's pipeline: frame source, models, filters, tracking
-  kPipelineSource,
   kLocalizeModels,
   kFiltersBilateral,
   kTrackingPoses,

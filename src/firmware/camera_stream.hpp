@@ -23,7 +23,7 @@
 #include "edgefuse/hal/acquisition/frame_channel.hpp"
 #include "edgefuse/hal/acquisition/frame_pool.hpp"
 
-namespace edgefuse::wire {
+namespace edgefuse::firmware {
 
 struct CameraStream {
   std::string name;             //!< hal.toml name
@@ -72,4 +72,4 @@ struct CameraStream {
   hal::FramePoolViews pool_views_;           // this camera's frames in them
 };
 
-}  // namespace edgefuse::wire
+}  // namespace edgefuse::firmware

@@ -5,7 +5,7 @@
 
 #include "edgefuse/board_config.hpp"
 
-namespace edgefuse::wire {
+namespace edgefuse::firmware {
 
 bool CameraStream::bind(CoreBuffers& b, const BoardCapacities& board, const PinholeIntrinsics& intr, bool tof,
                         bool bilateral, std::string& err) {
@@ -107,4 +107,4 @@ const char* CameraStream::status_text() const {
   return status_;
 }
 
-}  // namespace edgefuse::wire
+}  // namespace edgefuse::firmware

@@ -1,4 +1,4 @@
-// Host side of `edgefuse localize`: model files into the localiser, clouds into scene points,
+// Localisation inputs and outputs on the host and at start-up on the board: model files into the localiser, clouds into scene points,
 // the pose list and the segment labels out. Host code: may allocate.
 #pragma once
 
@@ -6,10 +6,10 @@
 #include <vector>
 
 #include "edgefuse/io/cloud.hpp"
+#include "edgefuse/io/rig.hpp"
 #include "edgefuse/localize/localizer.hpp"
-#include "edgefuse/hal/platform/threads/worker_pool.hpp"
 
-namespace edgefuse::cli {
+namespace edgefuse::io {
 
 //! Reads a model (PLY mesh in metres; or a PLY/PCD cloud, normals estimated when absent) into `loc`.
 //! \return false with `err` saying what is wrong with the file
@@ -47,6 +47,17 @@ bool read_localize_config(const std::string& path, std::vector<std::string>& mod
 //! \return false with `err` naming `spec` (missing, unreadable folder, folder without models)
 bool model_files(const std::string& spec, std::vector<std::string>& out, std::string& err);
 
+//! The models a program localises with: `spec` (model_files) when given, else the models the
+//! rig set `replay_dir` lists (rig.toml [[object]]), else none (model-free segments).
+//! \param spec the configured models ("": none)  \param replay_dir a replayed recording ("": none)
+//! \param out model files, each once  \param err names the file or option that was wrong
+bool model_files_for(const std::string& spec, const std::string& replay_dir, std::vector<std::string>& out,
+                     std::string& err);
+
+//! The extrinsics.txt of a rig set `folder` when it has one (else `out` stays empty).
+//! \param folder the set  \param out its sensor pairs  \param err names the file and line
+bool read_rig_extrinsics(const std::string& folder, std::vector<SensorExtrinsic>& out, std::string& err);
+
 //! `id tx ty tz qx qy qz qw score model` per result.
 bool write_pose_list(const std::string& path, const Localizer& loc, std::size_t count, std::string& err);
 
@@ -54,9 +65,5 @@ bool write_pose_list(const std::string& path, const Localizer& loc, std::size_t 
 bool write_segment_labels(const std::string& path, const Localizer& loc, const io::PointCloud& input,
                           std::size_t surface_count, const SurfacePoint* surface, std::string& err);
 
-//! The localiser's parallel-for on a started worker pool (jobs handed out from an atomic counter;
-//! allocates nothing per call).
-//! \param pool the workers (must outlive the localiser's use of the result)
-ParallelFor pool_parallel_for(WorkerPool& pool);
 
-}  // namespace edgefuse::cli
+}  // namespace edgefuse::io

@@ -12,7 +12,7 @@
 #include "alloc_counter.hpp"
 #include "edgefuse/board_config.hpp"
 #include "edgefuse/fusion/fusion_rules.hpp"
-#include "fusion_pipeline.hpp"
+#include "device_pipeline.hpp"
 #include "edgefuse/hal/sim/fault_camera.hpp"
 #include "edgefuse/hal/sim/sim_depth_camera.hpp"
 
@@ -34,7 +34,7 @@ void sleep_ms(int ms) {
 }
 
 // Steps until `frames` more frames were processed (at most 60 s).
-bool step_frames(wire::FusionPipeline& p, uint32_t frames) {
+bool step_frames(firmware::DevicePipeline& p, uint32_t frames) {
   const uint32_t target = p.stats().frames + frames;
   const uint64_t end = now_us() + 60000000u;
   while (p.stats().frames < target && now_us() < end) {
@@ -44,7 +44,7 @@ bool step_frames(wire::FusionPipeline& p, uint32_t frames) {
   return p.stats().frames >= target;
 }
 
-bool localize(wire::FusionPipeline& p, runtime::LocalizationOutcome& r) {
+bool localize(firmware::DevicePipeline& p, runtime::LocalizationOutcome& r) {
   const char* why = "";
   if (!p.start_localization(now_us(), &why)) return false;
   const uint64_t end = now_us() + 120000000u;
@@ -57,11 +57,11 @@ bool localize(wire::FusionPipeline& p, runtime::LocalizationOutcome& r) {
 }
 
 void run_pipeline(bool tracked) {
-  wire::FusionPipelineConfig c;
+  firmware::DevicePipelineConfig c;
   c.board = kBuildBoard.name;
   c.tracked = tracked;
   c.push_every_frame = true;
-  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
   CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
   CHECK_EQUAL(0, p->model_count());  // no models configured, no replay: model-free segments
@@ -96,15 +96,15 @@ void run_pipeline(bool tracked) {
 
 }  // namespace
 
-TEST_GROUP(FusionPipeline){};
+TEST_GROUP(DevicePipeline){};
 
-TEST(FusionPipeline, KnownPosesSegmentsWithoutHeap) { run_pipeline(false); }
+TEST(DevicePipeline, KnownPosesSegmentsWithoutHeap) { run_pipeline(false); }
 
-TEST(FusionPipeline, TrackedPosesSegmentsWithoutHeap) { run_pipeline(true); }
+TEST(DevicePipeline, TrackedPosesSegmentsWithoutHeap) { run_pipeline(true); }
 
 namespace {
 // Steps for `ms` milliseconds.
-void step_for(wire::FusionPipeline& p, int ms) {
+void step_for(firmware::DevicePipeline& p, int ms) {
   const uint64_t end = now_us() + uint64_t(ms) * 1000u;
   while (now_us() < end) {
     p.step(now_us());
@@ -112,18 +112,18 @@ void step_for(wire::FusionPipeline& p, int ms) {
   }
 }
 // Steps until the reference camera is in state `s` (at most 10 s).
-bool wait_state(wire::FusionPipeline& p, hal::DeviceState s) {
+bool wait_state(firmware::DevicePipeline& p, hal::DeviceState s) {
   const uint64_t end = now_us() + 10000000u;
   while (p.camera_stream(0).counters.device_state() != s && now_us() < end) step_for(p, 5);
   return p.camera_stream(0).counters.device_state() == s;
 }
 // A pipeline of the build board with sensors.fuse = `fuse`, initialised (the checks are the
 // calling test's) and not mapping yet.
-std::unique_ptr<wire::FusionPipeline> fusing_pipeline(const char* fuse) {
-  wire::FusionPipelineConfig c;
+std::unique_ptr<firmware::DevicePipeline> fusing_pipeline(const char* fuse) {
+  firmware::DevicePipelineConfig c;
   c.board = kBuildBoard.name;
   c.fuse = fuse;
-  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
   CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
   return p;
@@ -133,10 +133,10 @@ std::unique_ptr<wire::FusionPipeline> fusing_pipeline(const char* fuse) {
 // Faults at the camera in edgefused: the acquisition thread recovers a stall by
 // reopening, rejects a garbage frame with a counted reason, waits out an unplug; tracking pauses
 // meanwhile and the map is kept (frames go on adding to it afterwards).
-TEST(FusionPipeline, CameraFaultsKeepTheMap) {
-  wire::FusionPipelineConfig c;
+TEST(DevicePipeline, CameraFaultsKeepTheMap) {
+  firmware::DevicePipelineConfig c;
   c.board = kBuildBoard.name;
-  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
   CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
   const char* why = "";
@@ -190,8 +190,8 @@ TEST(FusionPipeline, CameraFaultsKeepTheMap) {
 // sensors.fuse = "xtion,tof": the tof's frames enter the map at the xtion's pose of the same
 // instant times the sim rig's mounting, weighted by its noise model; no heap while mapping; and
 // calib fuse on the live map recovers the mounting.
-TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
-  std::unique_ptr<wire::FusionPipeline> p = fusing_pipeline("xtion,tof");
+TEST(DevicePipeline, TofFeedsTheMapAndCalibrates) {
+  std::unique_ptr<firmware::DevicePipeline> p = fusing_pipeline("xtion,tof");
   STRCMP_EQUAL("sim rig mounting", p->camera_stream(1).mount_source);
   const char* why = "";
   CHECK_TRUE(p->start_mapping(&why));
@@ -210,7 +210,7 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
   // xtion's fills sub-unit samples only to 3 units, so its support rule is 4 (rule 3), not the
   // evidence rule's 9.
   CHECK_TRUE(p->camera_stream(0).slot.sigma.frames >= 2 && p->camera_stream(1).slot.sigma.frames >= 2);
-  const float sigma_ref_m = 0.5f * wire::FusionPipelineConfig().voxel_m;  // the pipeline's trust reference
+  const float sigma_ref_m = 0.5f * firmware::DevicePipelineConfig().voxel_m;  // the pipeline's trust reference
   CHECK_FALSE(sub_unit_sensor(p->camera_stream(0).slot.median_sigma(), sigma_ref_m));
   CHECK_TRUE(sub_unit_sensor(p->camera_stream(1).slot.median_sigma(), sigma_ref_m));
   LONGS_EQUAL(kSubUnitFillUnits, p->mapper().sub_unit_fill());
@@ -264,8 +264,8 @@ TEST(FusionPipeline, TofFeedsTheMapAndCalibrates) {
 // reference frames) there is no velocity and the frame takes the last pose exactly (the product's
 // rule, PoseHistory::kVelocityGapMaxUs): each frame is checked by the rule that placed it. A CI run with the
 // former 100 ms limit placed one frame of eight so (0.046 mm off) and failed the velocity bound.
-TEST(FusionPipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
-  std::unique_ptr<wire::FusionPipeline> p = fusing_pipeline("xtion,tof");
+TEST(DevicePipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
+  std::unique_ptr<firmware::DevicePipeline> p = fusing_pipeline("xtion,tof");
   const char* why = "";
   CHECK_TRUE(p->start_mapping(&why));
   CHECK_TRUE(step_frames(*p, 3));
@@ -276,7 +276,7 @@ TEST(FusionPipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
   while (by_velocity < 8 && by_velocity + by_last_pose < 40 && now_us() < end) {
     p->step(now_us());
     sleep_ms(2);
-    const wire::CameraStream& tof = p->camera_stream(1);
+    const firmware::CameraStream& tof = p->camera_stream(1);
     if (tof.held == nullptr || tof.paired_stamp_us != p->reference_stamp_us() || tof.paired_stamp_us == last_checked_us)
       continue;
     last_checked_us = tof.paired_stamp_us;
@@ -301,7 +301,7 @@ TEST(FusionPipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
   if (by_velocity == 0) std::printf("  (a starved machine: no two reference frames within 250 ms, the velocity path was not reached)\n");
   const hal::SimDepthCameraConfig rig;
   const double omega = 2.0 * M_PI / double(rig.rig_period_s), accel = double(rig.rig_radius_m) * omega * omega;
-  const double window_s = 1e-6 * double(wire::FusionPipeline::kPairWindowUs);
+  const double window_s = 1e-6 * double(firmware::DevicePipeline::kPairWindowUs);
   const double gap_s = 1e-6 * double(PoseHistory::kVelocityGapMaxUs);
   const double bound_mm = 1e3 * accel * window_s * (window_s + gap_s) / 2.0 + 0.001;  // + float rounding at 0.7 m
   CHECK_TRUE_TEXT(worst_mm < bound_mm, (std::to_string(worst_mm) + " mm > " + std::to_string(bound_mm)).c_str());
@@ -311,8 +311,8 @@ TEST(FusionPipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
 
 // sensors.fuse = "xtion,laser": the sim line scanner's profiles (100 Hz, its own thread) enter the
 // map at the poses of the simulated axis, every one in order, without heap.
-TEST(FusionPipeline, LineScannerFeedsTheMap) {
-  std::unique_ptr<wire::FusionPipeline> p = fusing_pipeline("xtion,laser");
+TEST(DevicePipeline, LineScannerFeedsTheMap) {
+  std::unique_ptr<firmware::DevicePipeline> p = fusing_pipeline("xtion,laser");
   CHECK_EQUAL(3, p->device_count());
   STRCMP_EQUAL("laser", p->device_name(2));
   const char* why = "";
@@ -333,11 +333,11 @@ TEST(FusionPipeline, LineScannerFeedsTheMap) {
 // A tracked map starts at flange pose x hand-eye x mounting: with the store's identity hand-eye at
 // the sim robot's pose (= the camera's true pose); a hand-eye of 10 mm along the flange's x moves
 // the start by that much along the flange's x axis.
-TEST(FusionPipeline, TrackingStartsAtFlangeTimesHandEye) {
-  wire::FusionPipelineConfig c;
+TEST(DevicePipeline, TrackingStartsAtFlangeTimesHandEye) {
+  firmware::DevicePipelineConfig c;
   c.board = kBuildBoard.name;
   c.tracked = true;
-  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
   CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
   Pose truth;
@@ -352,16 +352,16 @@ TEST(FusionPipeline, TrackingStartsAtFlangeTimesHandEye) {
 }
 
 // A sensor that is not a camera of hal.toml is refused at start-up with the key and the names.
-TEST(FusionPipeline, UnknownFuseSensorRefused) {
-  wire::FusionPipelineConfig c;
+TEST(DevicePipeline, UnknownFuseSensorRefused) {
+  firmware::DevicePipelineConfig c;
   c.board = kBuildBoard.name;
   c.fuse = "xtion,kinect";
-  std::unique_ptr<wire::FusionPipeline> p(new wire::FusionPipeline);
+  std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
   CHECK_FALSE(p->init(c, err));
   CHECK_TRUE_TEXT(err.find("sensors.fuse = 'xtion,kinect': 'kinect' is not a sensor of") == 0, err.c_str());
   c.fuse = "laser,xtion";  // the reference must be a camera
-  std::unique_ptr<wire::FusionPipeline> q(new wire::FusionPipeline);
+  std::unique_ptr<firmware::DevicePipeline> q(new firmware::DevicePipeline);
   CHECK_FALSE(q->init(c, err));
   CHECK_TRUE_TEXT(err.find("the first sensor is the reference and must be a camera") != std::string::npos, err.c_str());
 }

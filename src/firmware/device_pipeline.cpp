@@ -1,9 +1,4 @@
-#include "fusion_pipeline.hpp"
-
-#include <dirent.h>
-#include <sys/stat.h>
-#include <time.h>
-#include <unistd.h>
+#include "device_pipeline.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,16 +6,17 @@
 #include <cstring>
 #include <vector>
 
-#include "board_defaults.hpp"
+#include "edgefuse/hal/platform/config/board_defaults.hpp"
 #include "edgefuse/board_config.hpp"
 #include "edgefuse/io/board_hal.hpp"
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/memory/arena.hpp"
 #include "edgefuse/pipeline/localization_job.hpp"
+#include "edgefuse/hal/platform/clock/cpu_clock.hpp"
 #include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
-#include "localize_io.hpp"
+#include "edgefuse/io/localize_io.hpp"
 
-namespace edgefuse::wire {
+namespace edgefuse::firmware {
 
 namespace {
 
@@ -35,17 +31,6 @@ float g_centre_xyz[3][kCentreSamples];
 // The line scanner's range noise (20 um, constant) for its trust against the cameras.
 constexpr float kScannerSigmaM = 20e-6f;
 
-double thread_cpu_ms() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
-}
-
-bool is_dir(const std::string& p) {
-  struct stat st;
-  return stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
-}
-
 Pose to_pose(const runtime::CalibPose& p) {
   return Pose::from_tq(p.tq[0], p.tq[1], p.tq[2], p.tq[3], p.tq[4], p.tq[5], p.tq[6]);
 }
@@ -58,7 +43,7 @@ runtime::TrackingState runtime_state(TrackState s) {
 
 }  // namespace
 
-bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) {
+bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) {
   config_ = config;
   const BoardCapacities* board = find_board(config.board.c_str());
   if (board == nullptr) {
@@ -72,8 +57,8 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
   }
   // Devices from the board's hal.toml (sensors.replay: every camera replays the rig set instead).
   const std::string hal_path = std::string(kBoardSourceDir) + "/" + config.board + "/hal.toml";
-  cli::BoardDefaults defaults;
-  if (!init_cameras(hal_path, err) || !init_fused(hal_path, err) || !cli::read_board_defaults(config.board, defaults, err))
+  hal::BoardDefaults defaults;
+  if (!init_cameras(hal_path, err) || !init_fused(hal_path, err) || !hal::read_board_defaults(config.board, defaults, err))
     return false;
   // Static buffers: the board's memory map carved once, the volume bound to its capacity.
   if (carve_memory(*board, static_arena(), static_arena_bytes(), buffers_) != Status::kOk) {
@@ -120,19 +105,17 @@ bool FusionPipeline::init(const FusionPipelineConfig& config, std::string& err) 
   CameraSlot* fused[kCamerasMax];
   for (int k = 0; k < fuse_count_; ++k) fused[k] = &cams_[order_[k]].slot;
   mapper_.set_fused_cameras(fused, fuse_count_);
-  if (!config.replay.empty() && access((config.replay + "/extrinsics.txt").c_str(), R_OK) == 0 &&
-      !io::read_extrinsics_txt(config.replay + "/extrinsics.txt", rig_extrinsics_, err))
-    return false;
+  if (!config.replay.empty() && !io::read_rig_extrinsics(config.replay, rig_extrinsics_, err)) return false;
   update_mounts();
   if (!init_models(err)) return false;
   print_setup();
   pool_.start(threads_);
-  thread_ = std::thread([this] { localize_thread(); });
+  localization_.start([](void* self) { static_cast<DevicePipeline*>(self)->run_localization(); }, this);
   return true;
 }
 
 // The board's cameras from hal.toml (or the replayed set), each with its first mode.
-bool FusionPipeline::init_cameras(const std::string& hal_path, std::string& err) {
+bool DevicePipeline::init_cameras(const std::string& hal_path, std::string& err) {
   const BoardCapacities& board = build_board();
   io::BoardHal hal_data;
   if (!io::read_board_hal(hal_path, hal_data, err)) return false;
@@ -165,7 +148,7 @@ bool FusionPipeline::init_cameras(const std::string& hal_path, std::string& err)
 }
 
 // sensors.fuse: the cameras that feed the map (the first is the reference) and the line scanner.
-bool FusionPipeline::init_fused(const std::string& hal_path, std::string& err) {
+bool DevicePipeline::init_fused(const std::string& hal_path, std::string& err) {
   std::string names;
   for (int i = 0; i < camera_count_; ++i) names += (i ? ", " : "") + cams_[i].name;
   fuse_count_ = 0;
@@ -205,7 +188,7 @@ bool FusionPipeline::init_fused(const std::string& hal_path, std::string& err) {
 }
 
 // The line scanner: the slot after the cameras', its own thread and pool.
-bool FusionPipeline::init_scanner(const BoardCapacities& board, std::string& err) {
+bool DevicePipeline::init_scanner(const BoardCapacities& board, std::string& err) {
   if (devices_.scanner() == nullptr) return true;
   scanner_.name = devices_.scanner()->name();
   if (!scanner_.bind(*devices_.scanner(), buffers_, board, camera_count_, err)) {
@@ -224,7 +207,7 @@ bool FusionPipeline::init_scanner(const BoardCapacities& board, std::string& err
 }
 
 // Models: the configured file/folder, else the replayed rig set's (rig.toml [[object]] models).
-bool FusionPipeline::init_models(std::string& err) {
+bool DevicePipeline::init_models(std::string& err) {
   const BoardCapacities& board = build_board();
   if (loc_.init(buffers_.localize) != Status::kOk) {
     err = std::string("board ") + board.name + " has no localisation buffers in its memory map";
@@ -233,21 +216,10 @@ bool FusionPipeline::init_models(std::string& err) {
   loc_params_.min_score = config_.min_score;
   loc_params_.max_per_model = board.objects_max;
   std::vector<std::string> files;
-  if (!config_.models.empty()) {
-    if (!cli::model_files(config_.models, files, err)) {
-      err = "localize.models: " + err;
-      return false;
-    }
-  } else if (!config_.replay.empty() && is_dir(config_.replay) &&
-             access((config_.replay + "/rig.toml").c_str(), R_OK) == 0) {
-    io::RigToml rig;
-    if (!io::read_rig_toml(config_.replay + "/rig.toml", rig, err)) return false;
-    for (const io::RigObject& o : rig.objects)
-      if (std::find(files.begin(), files.end(), o.model_path) == files.end()) files.push_back(o.model_path);
-  }
+  if (!io::model_files_for(config_.models, config_.replay, files, err)) return false;
   for (const std::string& f : files) {
     int index = -1;
-    if (!cli::load_model(loc_, f, loc_params_, index, err)) {
+    if (!io::load_model(loc_, f, loc_params_, index, err)) {
       err = "model " + f + ": " + err;
       return false;
     }
@@ -259,7 +231,7 @@ bool FusionPipeline::init_models(std::string& err) {
   return true;
 }
 
-void FusionPipeline::print_setup() const {
+void DevicePipeline::print_setup() const {
   const CameraStream& ref = cams_[order_[0]];
   std::printf("pipeline: camera %s (%s%s), %dx%d, filters %s%s, volume %d^3 x %.1f mm, poses: %s, %d thread(s)\n",
               ref.name.c_str(), config_.replay.empty() ? "hal.toml backend" : "replay of ", config_.replay.c_str(),
@@ -279,7 +251,7 @@ void FusionPipeline::print_setup() const {
 }
 
 // Extrinsics of every camera in the reference camera's frame, best source first.
-void FusionPipeline::update_mounts() {
+void DevicePipeline::update_mounts() {
   const CameraStream& ref = cams_[order_[0]];
   for (int i = 0; i < camera_count_; ++i) {
     CameraStream& c = cams_[i];
@@ -339,20 +311,13 @@ void FusionPipeline::update_mounts() {
   std::fflush(stdout);
 }
 
-void FusionPipeline::calibration_changed(const runtime::CalibrationData& d) {
+void DevicePipeline::calibration_changed(const runtime::CalibrationData& d) {
   calib_ = d;
   if (camera_count_ > 0) update_mounts();
 }
 
-void FusionPipeline::shutdown() {
-  if (thread_.joinable()) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      quit_ = true;
-    }
-    wake_.notify_all();
-    thread_.join();
-  }
+void DevicePipeline::shutdown() {
+  localization_.stop();
   pool_.stop();
   for (int i = 0; i < camera_count_; ++i)
     if (cams_[i].worker) cams_[i].worker->stop();
@@ -360,15 +325,15 @@ void FusionPipeline::shutdown() {
   camera_running_ = false;
 }
 
-const char* FusionPipeline::device_name(int i) const {
+const char* DevicePipeline::device_name(int i) const {
   return i < camera_count_ ? cams_[i].name.c_str() : scanner_.name.c_str();
 }
 
-const char* FusionPipeline::device_state(int i) const {
+const char* DevicePipeline::device_state(int i) const {
   return i < camera_count_ ? cams_[i].status_text() : scanner_.status_text();
 }
 
-bool FusionPipeline::start_mapping(const char** why) {
+bool DevicePipeline::start_mapping(const char** why) {
   if (!camera_running_) {
     // Every camera streams on its own thread from now on; a camera that does not open is retried
     // with back-off by its thread (status shows it), the others go on.
@@ -398,7 +363,7 @@ bool FusionPipeline::start_mapping(const char** why) {
   return true;
 }
 
-void FusionPipeline::stop_mapping() {
+void DevicePipeline::stop_mapping() {
   mapping_ = false;
   // The threads stop; each camera's held frame stays valid (calib fuse may still use it).
   for (int i = 0; i < camera_count_; ++i) cams_[i].worker->stop();
@@ -410,17 +375,17 @@ void FusionPipeline::stop_mapping() {
   stats_.tracking = runtime::TrackingState::kOff;
 }
 
-void FusionPipeline::reset_map() {
-  if (localizing_) return;  // the localiser reads the volume; the runtime refuses this anyway
+void DevicePipeline::reset_map() {
+  if (localization_.busy()) return;  // the localiser reads the volume; the runtime refuses this anyway
   mapper_.new_map();
 }
 
-void FusionPipeline::step(uint64_t now_us) {
+void DevicePipeline::step(uint64_t now_us) {
   if (!mapping_ || !camera_running_) return;
   // Newest-frame policy for the reference camera; the others are paired with its frames below.
   CameraStream& ref = cams_[order_[0]];
   ref.take_newest();
-  if (localizing_) {
+  if (localization_.busy()) {
     update_drops();
     return;  // the volume belongs to the localiser now; the held frames wait
   }
@@ -462,11 +427,11 @@ void FusionPipeline::step(uint64_t now_us) {
 }
 
 // The line scanner: every profile, in order (each is one slice of the scan).
-void FusionPipeline::drain_profiles() {
+void DevicePipeline::drain_profiles() {
   if (scanner_.worker) scanner_.channel.drain([this](const hal::LineProfile& p) { process_profile(p); });
 }
 
-void FusionPipeline::process_profile(const hal::LineProfile& p) {
+void DevicePipeline::process_profile(const hal::LineProfile& p) {
   if (!scanner_.fuse) return;
   Pose T;
   if (!mapper_.placed() || !scanner_.pose_of(p, T)) {  // no map placed yet, or no axis position
@@ -480,7 +445,7 @@ void FusionPipeline::process_profile(const hal::LineProfile& p) {
   ++scanner_.integrated;
 }
 
-void FusionPipeline::update_drops() {
+void DevicePipeline::update_drops() {
   uint32_t n = pipeline_drops_;
   for (int k = 0; k < fuse_count_; ++k) {
     const CameraStream& c = cams_[order_[k]];
@@ -495,7 +460,7 @@ void FusionPipeline::update_drops() {
   stats_.drops = n;
 }
 
-void FusionPipeline::process_reference(uint64_t now_us) {
+void DevicePipeline::process_reference(uint64_t now_us) {
   CameraStream& ref = cams_[order_[0]];
   if (last_frame_us_ != 0 && now_us > last_frame_us_) {
     const float inst = 1e6f / float(now_us - last_frame_us_);
@@ -545,7 +510,7 @@ void FusionPipeline::process_reference(uint64_t now_us) {
 
 // T_world_ref = T_world_flange * T_flange_rig * T_rig_ref: the robot's flange pose (where a robot
 // pose is available), the hand-eye mounting and the reference camera's mounting on the rig.
-Pose FusionPipeline::tracking_start_pose(uint32_t sequence) {
+Pose DevicePipeline::tracking_start_pose(uint32_t sequence) {
   const CameraStream& ref = cams_[order_[0]];
   Pose T_world_flange;
   if (!devices_.flange_pose(ref.index, sequence, T_world_flange)) {
@@ -570,7 +535,7 @@ Pose FusionPipeline::tracking_start_pose(uint32_t sequence) {
 
 // Another camera of the map: its frame at the reference's pose of the same instant times its
 // extrinsics, weighted by its noise model.
-void FusionPipeline::process_other(CameraStream& c) {
+void DevicePipeline::process_other(CameraStream& c) {
   if (!c.has_mount || !mapper_.placed()) {  // no extrinsics yet, or no map placed yet
     ++c.unpaired;
     return;
@@ -583,48 +548,28 @@ void FusionPipeline::process_other(CameraStream& c) {
   ++c.integrated;
 }
 
-bool FusionPipeline::start_localization(uint64_t, const char** why) {
+bool DevicePipeline::start_localization(uint64_t, const char** why) {
   if (mapper_.map_frames() == 0) {
     *why = "the map is empty";
     return false;
   }
-  if (localizing_) {
+  if (!localization_.submit()) {
     *why = "a localisation is running";
     return false;
   }
-  done_ = false;
-  localizing_ = true;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    request_ = true;
-  }
-  wake_.notify_one();
   return true;
 }
 
-bool FusionPipeline::poll_localization(runtime::LocalizationOutcome& out) {
-  if (!localizing_ || !done_) return false;
+bool DevicePipeline::poll_localization(runtime::LocalizationOutcome& out) {
+  if (!localization_.finished()) return false;
   out = result_;
-  localizing_ = false;
+  localization_.collect();
   return true;
-}
-
-void FusionPipeline::localize_thread() {
-  for (;;) {
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [this] { return quit_ || request_; });
-      if (quit_) return;
-      request_ = false;
-    }
-    run_localization();
-    done_ = true;
-  }
 }
 
 // The localisation job on the map, as the runtime reports it. No heap.
-void FusionPipeline::run_localization() {
-  const double t0 = thread_cpu_ms();
+void DevicePipeline::run_localization() {
+  const double t0 = hal::thread_cpu_ms();
   runtime::LocalizationOutcome& r = result_;
   r = runtime::LocalizationOutcome();
   r.stamp_us = mapper_.last_capture_us();
@@ -659,7 +604,7 @@ void FusionPipeline::run_localization() {
                 request.segments ? "segment" : loc_.model(o[i].model).name, double(t.x()), double(t.y()),
                 double(t.z()), double(q.x()), double(q.y()), double(q.z()), double(q.w()), double(o[i].score));
   }
-  last_localize_cpu_ms_ = thread_cpu_ms() - t0;
+  last_localize_cpu_ms_ = hal::thread_cpu_ms() - t0;
   std::printf("localize: %zu frames in the map, surface %zu points, floor %s, %zu %s, %.0f ms CPU\n",
               size_t(mapper_.map_frames()), report.surface_points, loc_.context().has_floor ? "found" : "not found",
               report.count, request.segments ? "segments" : "objects", last_localize_cpu_ms_);
@@ -669,4 +614,4 @@ void FusionPipeline::run_localization() {
   std::fflush(stdout);
 }
 
-}  // namespace edgefuse::wire
+}  // namespace edgefuse::firmware

@@ -1,4 +1,4 @@
-#include "board_defaults.hpp"
+#include "edgefuse/hal/platform/config/board_defaults.hpp"
 
 #include <toml++/toml.h>
 
@@ -9,7 +9,7 @@
 
 #include "edgefuse/board_config.hpp"
 
-namespace edgefuse::cli {
+namespace edgefuse::hal {
 namespace {
 
 template <class T>
@@ -55,4 +55,4 @@ bool read_board_defaults(const std::string& board, BoardDefaults& out, std::stri
          read_number(t, file, "threads", 1, 64, out.threads, err);
 }
 
-}  // namespace edgefuse::cli
+}  // namespace edgefuse::hal

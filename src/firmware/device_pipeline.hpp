@@ -40,12 +40,8 @@
 // served; no frame is integrated while it reads the volume.
 #pragma once
 
-#include <atomic>
-#include <condition_variable>
 #include <cstdint>
-#include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "camera_stream.hpp"
@@ -58,11 +54,12 @@
 #include "edgefuse/runtime/calibration.hpp"
 #include "edgefuse/hal/devices/hal_devices.hpp"
 #include "edgefuse/hal/platform/threads/pool_row_runner.hpp"
+#include "edgefuse/hal/platform/threads/background_job.hpp"
 #include "edgefuse/hal/platform/threads/worker_pool.hpp"
 
-namespace edgefuse::wire {
+namespace edgefuse::firmware {
 
-struct FusionPipelineConfig {
+struct DevicePipelineConfig {
   std::string board;        //!< board folder name (hal.toml, board.toml)
   std::string replay;       //!< rig set / sequence folder every camera replays ("" : hal.toml's backends)
   std::string models;       //!< a PLY model or a folder of them ("" : a replayed rig set's models)
@@ -77,14 +74,14 @@ struct FusionPipelineConfig {
   std::string fuse;         //!< cameras feeding the map, "a,b" (first: reference); "" : hal.toml's first
 };
 
-class FusionPipeline final : public runtime::Pipeline {
+class DevicePipeline final : public runtime::Pipeline {
  public:
-  FusionPipeline() = default;
-  ~FusionPipeline() override { shutdown(); }
+  DevicePipeline() = default;
+  ~DevicePipeline() override { shutdown(); }
 
   //! Start-up: devices, static buffers, filters, models, threads. Prints what it set up.
   //! \param config what to open  \param err names the failing file / device / value
-  bool init(const FusionPipelineConfig& config, std::string& err);
+  bool init(const DevicePipelineConfig& config, std::string& err);
   //! Stops the threads and the camera (idempotent).
   void shutdown();
 
@@ -144,10 +141,9 @@ class FusionPipeline final : public runtime::Pipeline {
   void drain_profiles();
   void update_mounts();
   void update_drops();
-  void localize_thread();
   void run_localization();
 
-  FusionPipelineConfig config_;
+  DevicePipelineConfig config_;
   hal::HalDevices devices_;
   CameraStream cams_[kCamerasMax];
   ScannerStream scanner_;
@@ -177,16 +173,10 @@ class FusionPipeline final : public runtime::Pipeline {
   runtime::PipelineStats stats_;
   bool warned_no_pose_ = false;
 
-  // localisation thread
-  std::thread thread_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  bool quit_ = false;
-  bool request_ = false;
-  std::atomic<bool> localizing_{false};
-  std::atomic<bool> done_{false};
+  // the localisation, on its own thread
+  hal::BackgroundJob localization_;
   runtime::LocalizationOutcome result_;
   double last_localize_cpu_ms_ = 0;
 };
 
-}  // namespace edgefuse::wire
+}  // namespace edgefuse::firmware

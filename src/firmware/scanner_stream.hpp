@@ -18,7 +18,7 @@
 #include "edgefuse/hal/acquisition/frame_pool.hpp"
 #include "edgefuse/hal/acquisition/scanner_worker.hpp"
 
-namespace edgefuse::wire {
+namespace edgefuse::firmware {
 
 struct ScannerStream {
   std::string name;        //!< hal.toml name ("" : the board has no line scanner)
@@ -60,4 +60,4 @@ struct ScannerStream {
   int beams_ = 0;                             // the scanner's beams per profile
 };
 
-}  // namespace edgefuse::wire
+}  // namespace edgefuse::firmware

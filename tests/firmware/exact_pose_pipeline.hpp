@@ -1,12 +1,14 @@
-// host-sim's stand-in for the pipeline until the HAL, fusion and localisation are wired in: it
+// A pipeline with exact, fixed results for testing the firmware's runtime, console and link: it
 // counts frames at 30 Hz while mapping, reports the rig moving for 2 s after each scan start and
-// still afterwards, and "localises" in 0.1 s to a fixed set of object poses (kSimObjects). It is
-// a pose source for exercising the runtime, console and link, not a localisation.
+// still afterwards, and "localises" in 0.1 s to a fixed set of object poses (kSimObjects). The
+// test program edgefused_exact_poses runs the firmware with it (tests/firmware/).
 #pragma once
 
 #include "edgefuse/runtime/pipeline.hpp"
 
-namespace edgefuse::sim {
+namespace edgefuse_test {
+
+using namespace edgefuse;
 
 struct SimObject {
   const char* model;
@@ -16,7 +18,7 @@ struct SimObject {
 //! The simulated bin's objects (printed by `model list`, sent as poses).
 extern const SimObject kSimObjects[3];
 
-class SimPipeline : public runtime::Pipeline {
+class ExactPosePipeline : public runtime::Pipeline {
  public:
   bool start_mapping(const char** why) override;
   void stop_mapping() override { mapping_ = false; }
@@ -46,4 +48,4 @@ class SimPipeline : public runtime::Pipeline {
   runtime::PipelineStats stats_;
 };
 
-}  // namespace edgefuse::sim
+}  // namespace edgefuse_test

@@ -4,7 +4,7 @@
 
 #include "edgefuse/board_config.hpp"
 
-namespace edgefuse::wire {
+namespace edgefuse::firmware {
 
 bool ScannerStream::bind(hal::LineScanner& scanner, CoreBuffers& b, const BoardCapacities& board, int slot_index,
                          std::string& err) {
@@ -60,4 +60,4 @@ const char* ScannerStream::status_text() const {
   return status_;
 }
 
-}  // namespace edgefuse::wire
+}  // namespace edgefuse::firmware

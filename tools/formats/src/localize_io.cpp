@@ -1,7 +1,8 @@
-#include "localize_io.hpp"
+#include "edgefuse/io/localize_io.hpp"
 
 #include <dirent.h>
 #include <sys/stat.h>
+#include <unistd.h>
 #include <toml++/toml.h>
 
 #include <Eigen/Eigenvalues>
@@ -14,7 +15,7 @@
 #include "edgefuse/io/pcd.hpp"
 #include "edgefuse/io/ply.hpp"
 
-namespace edgefuse::cli {
+namespace edgefuse::io {
 namespace {
 
 bool ends_with(const std::string& s, const char* e) {
@@ -188,37 +189,30 @@ bool write_segment_labels(const std::string& path, const Localizer& loc, const i
   return io::write_pcd(path, out, err);
 }
 
-namespace {
 
-struct PoolJobs {
-  std::atomic<std::size_t> next{0};
-  std::size_t count = 0;
-  void (*body)(void*, std::size_t) = nullptr;
-  void* context = nullptr;
-};
 
-void pool_task(void* context, int, int) {
-  PoolJobs& jobs = *static_cast<PoolJobs*>(context);
-  for (std::size_t i = jobs.next.fetch_add(1); i < jobs.count; i = jobs.next.fetch_add(1)) jobs.body(jobs.context, i);
+bool model_files_for(const std::string& spec, const std::string& replay_dir, std::vector<std::string>& out,
+                     std::string& err) {
+  if (!spec.empty()) {
+    if (model_files(spec, out, err)) return true;
+    err = "localize.models: " + err;
+    return false;
+  }
+  struct stat st;
+  if (replay_dir.empty() || stat(replay_dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode) ||
+      access((replay_dir + "/rig.toml").c_str(), R_OK) != 0)
+    return true;
+  RigToml rig;
+  if (!read_rig_toml(replay_dir + "/rig.toml", rig, err)) return false;
+  for (const RigObject& o : rig.objects)
+    if (std::find(out.begin(), out.end(), o.model_path) == out.end()) out.push_back(o.model_path);
+  return true;
 }
 
-void pool_run(void* runner, std::size_t count, void (*body)(void*, std::size_t), void* context) {
-  PoolJobs jobs;
-  jobs.count = count;
-  jobs.body = body;
-  jobs.context = context;
-  static_cast<WorkerPool*>(runner)->run(&pool_task, &jobs);
+bool read_rig_extrinsics(const std::string& folder, std::vector<SensorExtrinsic>& out, std::string& err) {
+  const std::string path = folder + "/extrinsics.txt";
+  return access(path.c_str(), R_OK) != 0 || read_extrinsics_txt(path, out, err);
 }
-
-}  // namespace
-
-ParallelFor pool_parallel_for(WorkerPool& pool) {
-  ParallelFor pf;
-  pf.run = &pool_run;
-  pf.runner = &pool;
-  return pf;
-}
-
 
 bool read_bin_toml(const std::string& path, BinGeometry& bin, std::string& err) {
   toml::table t;
@@ -340,4 +334,4 @@ bool model_files(const std::string& spec, std::vector<std::string>& out, std::st
   return true;
 }
 
-}  // namespace edgefuse::cli
+}  // namespace edgefuse::io

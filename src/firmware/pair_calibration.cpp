@@ -18,9 +18,9 @@
 #include "edgefuse/fusion/calibrate_pair.hpp"
 #include "edgefuse/fusion/pose_mean.hpp"
 #include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
-#include "fusion_pipeline.hpp"
+#include "device_pipeline.hpp"
 
-namespace edgefuse::wire {
+namespace edgefuse::firmware {
 
 namespace {
 // Filters' intermediate image for the calibration frame (static: no heap).
@@ -33,7 +33,7 @@ constexpr int kCalibFrames = 10;
 constexpr uint64_t kCalibFrameWaitUs = 1000000;
 }  // namespace
 
-bool FusionPipeline::calibrate_pair(const char* from, const char* to, runtime::PairCalibrationReport& out,
+bool DevicePipeline::calibrate_pair(const char* from, const char* to, runtime::PairCalibrationReport& out,
                                     const char** why) {
   static char reason[256];
   *why = reason;
@@ -61,7 +61,7 @@ bool FusionPipeline::calibrate_pair(const char* from, const char* to, runtime::P
                   ref.name.c_str());
     return false;
   }
-  if (localizing_) {
+  if (localization_.busy()) {
     std::snprintf(reason, sizeof(reason), "a localisation is running");
     return false;
   }
@@ -164,4 +164,4 @@ bool FusionPipeline::calibrate_pair(const char* from, const char* to, runtime::P
   return true;
 }
 
-}  // namespace edgefuse::wire
+}  // namespace edgefuse::firmware

@@ -3,7 +3,7 @@
 
 #include <string>
 
-namespace edgefuse::cli {
+namespace edgefuse::hal {
 
 struct BoardDefaults {
   std::string name;
@@ -17,4 +17,4 @@ struct BoardDefaults {
 //! \return false with `err` naming the file and key when a value is missing or out of range
 bool read_board_defaults(const std::string& board, BoardDefaults& out, std::string& err);
 
-}  // namespace edgefuse::cli
+}  // namespace edgefuse::hal

@@ -1,8 +1,8 @@
-#include "sim_pipeline.hpp"
+#include "exact_pose_pipeline.hpp"
 
 #include <cstring>
 
-namespace edgefuse::sim {
+namespace edgefuse_test {
 
 // Three parts lying in a bin about 0.7 m below the rig (world frame = robot base).
 const SimObject kSimObjects[3] = {
@@ -17,19 +17,19 @@ constexpr uint64_t kMovingUs = 2000000;      // the rig moves for 2 s after scan
 constexpr uint64_t kLocalizeUs = 100000;     // 0.1 s of "localisation"
 }  // namespace
 
-const char* SimPipeline::device_name(int i) const {
+const char* ExactPosePipeline::device_name(int i) const {
   static const char* const k[] = {"xtion", "tof", "laser"};
   return i >= 0 && i < 3 ? k[i] : "?";
 }
 
-bool SimPipeline::start_mapping(const char**) {
+bool ExactPosePipeline::start_mapping(const char**) {
   mapping_ = true;
   mapping_since_us_ = now_us_;
   last_frame_us_ = now_us_;
   return true;
 }
 
-void SimPipeline::step(uint64_t now_us) {
+void ExactPosePipeline::step(uint64_t now_us) {
   now_us_ = now_us;
   if (!mapping_) {
     stats_.fps = 0;
@@ -48,7 +48,7 @@ void SimPipeline::step(uint64_t now_us) {
   stats_.still_since_us = now_us - mapping_since_us_ >= kMovingUs ? mapping_since_us_ + kMovingUs : 0;
 }
 
-bool SimPipeline::start_localization(uint64_t now_us, const char** why) {
+bool ExactPosePipeline::start_localization(uint64_t now_us, const char** why) {
   if (map_frames_ == 0) {
     *why = "the map is empty";
     return false;
@@ -58,7 +58,7 @@ bool SimPipeline::start_localization(uint64_t now_us, const char** why) {
   return true;
 }
 
-bool SimPipeline::poll_localization(runtime::LocalizationOutcome& out) {
+bool ExactPosePipeline::poll_localization(runtime::LocalizationOutcome& out) {
   if (!localizing_ || now_us_ < localize_done_us_) return false;
   localizing_ = false;
   out = runtime::LocalizationOutcome();
@@ -75,9 +75,9 @@ bool SimPipeline::poll_localization(runtime::LocalizationOutcome& out) {
   return true;
 }
 
-bool SimPipeline::calibrate_pair(const char*, const char*, runtime::PairCalibrationReport&, const char** why) {
+bool ExactPosePipeline::calibrate_pair(const char*, const char*, runtime::PairCalibrationReport&, const char** why) {
   *why = "rigid-pair calibration needs sensor data: pipeline.source = fusion";
   return false;
 }
 
-}  // namespace edgefuse::sim
+}  // namespace edgefuse_test

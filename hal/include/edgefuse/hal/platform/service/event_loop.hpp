@@ -1,0 +1,34 @@
+// The firmware's service loop on the OS: waits (poll, 10 ms at most, so the pipeline's tick also
+// runs when nothing arrives) on the console, the link's serial port and the TCP server, hands the
+// console's bytes to the handler, ticks it, reports readiness and feeds the systemd watchdog, and
+// returns when SIGTERM or SIGINT arrives. A console that shares the link's serial port gets the
+// bytes read from it; otherwise the link is output only and what arrives there is drained.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "edgefuse/hal/platform/serial_sockets/sockets.hpp"
+
+namespace edgefuse::hal {
+
+class ServiceHandler {
+ public:
+  virtual ~ServiceHandler() = default;
+  //! Bytes typed on the console. \param data the bytes  \param n their number
+  virtual void console_input(const char* data, size_t n) = 0;
+  //! The loop's tick. \param now_us the monotonic clock
+  virtual void tick(uint64_t now_us) = 0;
+};
+
+struct ServiceSources {
+  int console_fd = -1;              //!< the console's port (-1: none)
+  int link_fd = -1;                 //!< the link's serial port (-1: none)
+  bool console_on_link = false;     //!< the console shares the link's port
+  TcpServer* tcp = nullptr;         //!< the link's TCP server (accepts, drops dead clients)
+};
+
+//! Serves until SIGTERM or SIGINT. \return the signal that stopped it
+int serve_until_signal(const ServiceSources& sources, ServiceHandler& handler);
+
+}  // namespace edgefuse::hal

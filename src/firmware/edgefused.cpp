@@ -1,0 +1,300 @@
+// edgefused: the on-board runtime. Reads the board and the runtime configuration, opens the console
+// and the pose link (serial / pseudo-terminal, TCP server, UDP), and runs the state machine
+// IDLE -> MAPPING -> LOCALIZE -> REPORT in the platform's service loop. SIGTERM/SIGINT stop it
+// cleanly; under systemd it reports READY and feeds the watchdog. Everything is allocated before
+// the loop.
+#include "edgefused.hpp"
+
+#include <csignal>
+#include <cstdio>
+#include <string>
+
+#include "device_pipeline.hpp"
+#include "edgefuse/hal/platform/config/board_defaults.hpp"
+#include "edgefuse/hal/platform/config/calib_file_store.hpp"
+#include "edgefuse/hal/platform/config/config_toml.hpp"
+#include "edgefuse/hal/platform/service/event_loop.hpp"
+#include "edgefuse/hal/platform/service/ports.hpp"
+#include "edgefuse/link/publisher.hpp"
+#include "edgefuse/memory/arena.hpp"
+#include "edgefuse/runtime/console.hpp"
+#include "edgefuse/runtime/runtime.hpp"
+
+namespace edgefuse::firmware {
+namespace {
+
+const char* kUsage =
+    "usage: edgefused [--board NAME] [--config FILE] [--set KEY=VALUE]... [--check]\n"
+    "  --board NAME     board folder under board/ (default: the build's board)\n"
+    "  --config FILE    runtime configuration (TOML); every key is a parameter (param get lists them)\n"
+    "  --set KEY=VALUE  override one parameter, e.g. --set link.tcp_port=6000 (repeatable)\n"
+    "  --check          check the board data, the configuration and the --set values, print\n"
+    "                   'configuration OK' and exit 0 (1 with the error) without opening devices or ports\n";
+
+struct CommandLine {
+  std::string board = build_board().name;
+  std::string config;
+  std::string overrides[64];
+  int override_count = 0;
+  bool check_only = false;
+};
+
+// Static: nothing of the runtime lives on the heap.
+runtime::ParamStore g_params;
+DevicePipeline g_devices;
+hal::LinkFanout g_link;
+link::LinkPublisher g_publisher(g_link);
+hal::TcpServer g_tcp;
+hal::UdpSender g_udp;
+
+// \return -1 to go on, else the exit code (--help: 0, a bad argument: 2)
+int parse_command_line(int argc, char** argv, CommandLine& c) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::printf("%s", kUsage);
+      return 0;
+    }
+    if ((a == "--board" || a == "--config" || a == "--set") && i + 1 >= argc) {
+      std::fprintf(stderr, "edgefused: %s needs a value\n%s", a.c_str(), kUsage);
+      return 2;
+    }
+    if (a == "--board") {
+      c.board = argv[++i];
+    } else if (a == "--config") {
+      c.config = argv[++i];
+    } else if (a == "--check") {
+      c.check_only = true;
+    } else if (a == "--set") {
+      if (c.override_count == 64) {
+        std::fprintf(stderr, "edgefused: more than 64 --set options\n");
+        return 2;
+      }
+      c.overrides[c.override_count++] = argv[++i];
+    } else {
+      std::fprintf(stderr, "edgefused: unknown argument '%s'\n%s", a.c_str(), kUsage);
+      return 2;
+    }
+  }
+  return -1;
+}
+
+// Board data first (its [tsdf] defaults), then the config file, then --set: later wins.
+bool load_parameters(const CommandLine& c, std::string& err) {
+  if (find_board(c.board.c_str()) == nullptr) {
+    err = "unknown board '" + c.board + "'; known:";
+    for (int i = 0; i < board_count(); ++i) err += std::string(" ") + board_at(i).name;
+    return false;
+  }
+  hal::BoardDefaults bd;
+  if (!hal::read_board_defaults(c.board, bd, err)) return false;
+  char text[32], e[200];
+  std::snprintf(text, sizeof(text), "%.9g", double(bd.voxel_m));
+  const bool ok = g_params.set(runtime::kTsdfVoxelM, text, e, sizeof(e));
+  std::snprintf(text, sizeof(text), "%.9g", double(bd.trunc_m));
+  if (!ok || !g_params.set(runtime::kTsdfTruncM, text, e, sizeof(e))) {
+    err = "board/" + c.board + "/board.toml: " + e;
+    return false;
+  }
+  if (!c.config.empty() && !hal::load_config_toml(c.config, g_params, err)) return false;
+  for (int i = 0; i < c.override_count; ++i)
+    if (!hal::apply_override(c.overrides[i], g_params, err)) return false;
+  return true;
+}
+
+// Values whose combination is wrong (each alone passed its own check).
+bool check_combinations(std::string& err) {
+  const std::string console_spec = g_params.get_text(runtime::kConsoleSerial);
+  const std::string link_spec = g_params.get_text(runtime::kLinkSerial);
+  // console.serial = "link" shares the link's port; naming the same device twice is a mistake.
+  if (console_spec == "link" && link_spec.empty()) {
+    err = "console.serial = link, but link.serial is off";
+    return false;
+  }
+  if (!console_spec.empty() && console_spec != "pty" && console_spec == link_spec) {
+    err = "console.serial and link.serial are both " + console_spec +
+          "; write console.serial = \"link\" to share the link's port";
+    return false;
+  }
+  const std::string poses = g_params.get_text(runtime::kTrackingPoses);
+  if (poses != "known" && poses != "tracked" && poses != "auto") {
+    err = "tracking.poses = '" + poses + "' is not one of auto|known|tracked";
+    return false;
+  }
+  return true;
+}
+
+bool start_device_pipeline(const std::string& board, std::string& err) {
+  DevicePipelineConfig fc;
+  const std::string poses = g_params.get_text(runtime::kTrackingPoses);
+  fc.board = board;
+  fc.replay = g_params.get_text(runtime::kSensorsReplay);
+  fc.models = g_params.get_text(runtime::kLocalizeModels);
+  fc.voxel_m = float(g_params.get_number(runtime::kTsdfVoxelM));
+  fc.trunc_m = float(g_params.get_number(runtime::kTsdfTruncM));
+  fc.bilateral = g_params.get_bool(runtime::kFiltersBilateral);
+  fc.tracked = poses == "tracked";
+  fc.auto_poses = poses == "auto";
+  fc.push_every_frame = g_params.get_bool(runtime::kTrackingPushEveryFrame);
+  fc.fuse = g_params.get_text(runtime::kSensorsFuse);
+  fc.replay_speed = g_params.get_number(runtime::kSensorsReplaySpeed);
+  return g_devices.init(fc, err);
+}
+
+// The console, the link's serial port, TCP server and UDP destination.
+bool open_ports(hal::Port& console, hal::Port& link_port, std::string& err) {
+  const std::string console_spec = g_params.get_text(runtime::kConsoleSerial);
+  const bool shared = console_spec == "link";
+  if (!hal::open_port("console", shared ? "" : console_spec, g_params.get_int(runtime::kConsoleBaud), console, err) ||
+      !hal::open_port("link", g_params.get_text(runtime::kLinkSerial), g_params.get_int(runtime::kLinkBaud), link_port,
+                      err))
+    return false;
+  if (console.fd >= 0) std::printf("console: %s\n", console.name.c_str());
+  if (shared) std::printf("console: %s (shared with the link)\n", link_port.name.c_str());
+  if (link_port.fd >= 0) std::printf("link: %s\n", link_port.name.c_str());
+  if (g_params.get_bool(runtime::kLinkTcp)) {
+    if (!g_tcp.listen(g_params.get_text(runtime::kLinkTcpBind), g_params.get_int(runtime::kLinkTcpPort), err)) {
+      err = "link.tcp_port: " + err;
+      return false;
+    }
+    std::printf("tcp: %s:%d\n", g_params.get_text(runtime::kLinkTcpBind), g_tcp.port());
+    g_link.tcp = &g_tcp;
+  }
+  if (g_params.get_text(runtime::kLinkUdpHost)[0] != '\0') {
+    if (!g_udp.open(g_params.get_text(runtime::kLinkUdpHost), g_params.get_int(runtime::kLinkUdpPort), err)) {
+      err = "link.udp_host: " + err;
+      return false;
+    }
+    std::printf("udp: %s:%d\n", g_params.get_text(runtime::kLinkUdpHost), g_params.get_int(runtime::kLinkUdpPort));
+    g_link.udp = &g_udp;
+  }
+  g_link.serial_fd = link_port.fd;
+  return true;
+}
+
+// The console's output: to its port, at most 5 ms per write (a terminal that stopped reading
+// must not stall the pipeline). On a port shared with the link the next frame starts with a 0x00,
+// so a receiver drops this text as one bad block and decodes the frame after it.
+class ConsoleOut final : public runtime::ConsoleWriter {
+ public:
+  int fd = -1;
+  hal::LinkFanout* link = nullptr;  // set when the console shares the link's port
+  void write(const char* s, size_t n) override {
+    if (link != nullptr) link->serial_resync = true;
+    if (fd >= 0) hal::write_all(fd, s, n, 5);
+  }
+};
+
+class FileCalibStorage final : public runtime::CalibrationStorage {
+ public:
+  explicit FileCalibStorage(hal::CalibFileStore& s) : store_(s) {}
+  bool save(const runtime::CalibrationData& d, char* msg, size_t cap) override {
+    std::string err;
+    const bool ok = store_.save(d, err);
+    std::snprintf(msg, cap, "%s", ok ? "saved" : err.c_str());
+    return ok;
+  }
+  bool load(runtime::CalibrationData& d, char* msg, size_t cap) override {
+    hal::CalibLoadReport rep;
+    const bool ok = store_.load(d, rep);
+    std::snprintf(msg, cap, "%s", rep.message.c_str());
+    return ok;
+  }
+
+ private:
+  hal::CalibFileStore& store_;
+};
+
+// The loop's work: console bytes to the console, ticks to the runtime, state changes to the log.
+class Service final : public hal::ServiceHandler {
+ public:
+  Service(runtime::Runtime& rt, runtime::Console& console) : rt_(rt), console_(console) {}
+  void console_input(const char* data, size_t n) override { console_.feed(data, n); }
+  void tick(uint64_t now_us) override {
+    rt_.tick(now_us);
+    if (rt_.state() == last_state_ && rt_.results_sent() == last_results_) return;
+    // log.level info (2) and up: state changes; debug (3): every result.
+    if (g_params.get_int(runtime::kLogLevel) >= 2 && rt_.state() != last_state_)
+      std::printf("state: %s\n", runtime::to_string(rt_.state()));
+    if (g_params.get_int(runtime::kLogLevel) >= 3 && rt_.results_sent() != last_results_)
+      std::printf("result: seq %u sent (tcp clients %d, serial drops %u)\n", unsigned(rt_.results_sent() - 1),
+                  g_tcp.client_count(), unsigned(g_link.serial_drops));
+    std::fflush(stdout);
+    last_state_ = rt_.state();
+    last_results_ = rt_.results_sent();
+  }
+
+ private:
+  runtime::Runtime& rt_;
+  runtime::Console& console_;
+  runtime::RuntimeState last_state_ = runtime::RuntimeState::kIdle;
+  uint32_t last_results_ = 0;
+};
+
+int fail(const std::string& err) {
+  std::fprintf(stderr, "edgefused: %s\n", err.c_str());
+  return 1;
+}
+
+// Runtime, calibration, ports and console around `pipeline`, served until a signal.
+int serve(runtime::Pipeline& pipeline) {
+  std::string err;
+  static hal::CalibFileStore store(g_params.get_text(runtime::kCalibDir));
+  static FileCalibStorage storage(store);
+  static runtime::Runtime rt(pipeline, g_params, storage, g_publisher);
+  {
+    // Calibration: the newest valid slot, a corrupt one reported.
+    runtime::CalibrationData d;
+    hal::CalibLoadReport rep;
+    if (store.load(d, rep)) rt.set_calibration(d);
+    std::printf("%s\n", rep.message.c_str());
+  }
+  hal::Port console_port, link_port;
+  if (!open_ports(console_port, link_port, err)) return fail(err);
+  const bool shared = std::string(g_params.get_text(runtime::kConsoleSerial)) == "link";
+  static ConsoleOut console_out;
+  console_out.fd = shared ? link_port.fd : console_port.fd;
+  console_out.link = shared ? &g_link : nullptr;
+  static runtime::Console console(rt, g_params, console_out, "edgefused " PROJECT_VERSION);
+  console.set_echo(g_params.get_bool(runtime::kConsoleEcho));
+  Service service(rt, console);
+  hal::ServiceSources sources;
+  sources.console_fd = console_port.fd;
+  sources.link_fd = link_port.fd;
+  sources.console_on_link = shared;
+  sources.tcp = g_link.tcp;
+  const int sig = hal::serve_until_signal(sources, service);
+  g_devices.shutdown();
+  std::printf("edgefused: stopped by %s after %u results\n", sig == SIGINT ? "SIGINT" : "SIGTERM",
+              unsigned(rt.results_sent()));
+  std::fflush(stdout);
+  g_tcp.close();
+  g_udp.close();
+  hal::close_port(console_port);
+  hal::close_port(link_port);
+  return 0;
+}
+
+}  // namespace
+
+int run_edgefused(int argc, char** argv, runtime::Pipeline* pipeline) {
+  CommandLine c;
+  const int code = parse_command_line(argc, argv, c);
+  if (code >= 0) return code;
+  std::string err;
+  if (!load_parameters(c, err) || !check_combinations(err)) return fail(err);
+  std::printf("edgefused %s: board %s, config %s, voxel %g m, truncation %g m\n", PROJECT_VERSION, c.board.c_str(),
+              c.config.empty() ? "(defaults)" : c.config.c_str(), g_params.get_number(runtime::kTsdfVoxelM),
+              g_params.get_number(runtime::kTsdfTruncM));
+  if (c.check_only) {  // everything above reads files only; the devices, ports and files below are not touched
+    std::printf("configuration OK\n");
+    return 0;
+  }
+  if (pipeline == nullptr) {
+    if (!start_device_pipeline(c.board, err)) return fail(err);
+    pipeline = &g_devices;
+  }
+  return serve(*pipeline);
+}
+
+}  // namespace edgefuse::firmware
