@@ -86,6 +86,7 @@ Status Mapper::map_reference(CameraSlot& cam, const SensorFrame& in, const Pose*
   history_.record(in.stamp_us, out.T_world_cam, out.has_pose);
   if (!out.track.push) return Status::kOk;
   if (centre_pending_) out.centred = centre_on(cam, f, out.T_world_cam);
+  if (centre_pending_) return Status::kOk;  // nothing in range to place a new map on: not integrated
   s = integrate_frame<real_t>(runners_.tsdf, *volume_, cam.intr, cam.ray_norms, f, out.T_world_cam, cam.scratch);
   if (observer != nullptr) observer->phase_done(MapPhase::kIntegrate);
   if (s != Status::kOk) return s;
