@@ -14,6 +14,7 @@
 
 #include "edgefuse/io/pcd.hpp"
 #include "edgefuse/io/ply.hpp"
+#include "toml_util.hpp"
 
 namespace edgefuse::io {
 namespace {
@@ -216,12 +217,7 @@ bool read_rig_extrinsics(const std::string& folder, std::vector<SensorExtrinsic>
 
 bool read_bin_toml(const std::string& path, BinGeometry& bin, std::string& err) {
   toml::table t;
-  try {
-    t = toml::parse_file(path);
-  } catch (const toml::parse_error& e) {
-    err = path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
-    return false;
-  }
+  if (!detail::parse_toml_file(path, t, err)) return false;
   auto numbers = [&](const char* key, std::size_t count, double* out) {
     const toml::array* a = t["bin"][key].as_array();
     if (!a || a->size() != count) {
@@ -262,12 +258,7 @@ bool read_bin_toml(const std::string& path, BinGeometry& bin, std::string& err) 
 bool read_localize_config(const std::string& path, std::vector<std::string>& models, std::string& bin_file,
                           std::string& err) {
   toml::table t;
-  try {
-    t = toml::parse_file(path);
-  } catch (const toml::parse_error& e) {
-    err = path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description());
-    return false;
-  }
+  if (!detail::parse_toml_file(path, t, err)) return false;
   const std::size_t slash = path.find_last_of('/');
   const std::string dir = slash == std::string::npos ? std::string(".") : path.substr(0, slash);
   auto resolve = [&dir](const std::string& p) { return p.empty() || p[0] == '/' ? p : dir + "/" + p; };
