@@ -121,7 +121,8 @@ bool DevicePipeline::init_cameras(const std::string& hal_path, std::string& err)
   if (!io::read_board_hal(hal_path, hal_data, err)) return false;
   // A replayed recording is one scan: it ends after its last frame (each frame integrated once) and
   // the rig then counts as still (the still-period trigger localises).
-  if (!devices_.build(hal_data, hal::monotonic_clock(), err, config_.replay, false, config_.replay_speed)) {
+  if (!devices_.build(hal_data, hal::monotonic_clock(), err, config_.replay, false, config_.replay_speed,
+                      config_.inject_faults)) {
     err = hal_path + ": " + err;
     return false;
   }
@@ -182,7 +183,8 @@ bool DevicePipeline::init_fused(const std::string& hal_path, std::string& err) {
   }
   if (config_.auto_poses) {
     Pose first;
-    config_.tracked = !devices_.known_pose(cams_[order_[0]].index, 0, first);
+    const hal::TruthSource* truth = devices_.truth(cams_[order_[0]].index);
+    config_.tracked = truth == nullptr || !truth->pose_of(0, first);
   }
   return true;
 }
@@ -287,7 +289,10 @@ void DevicePipeline::update_mounts() {
         source = "rig set extrinsics.txt (inverted)";
       }
     }
-    if (source == nullptr && devices_.sim_mounting(ref.index, T_rig_ref) && devices_.sim_mounting(c.index, T_rig_cam)) {
+    const hal::TruthSource* truth_ref = devices_.truth(ref.index);
+    const hal::TruthSource* truth_cam = devices_.truth(c.index);
+    if (source == nullptr && truth_ref != nullptr && truth_cam != nullptr && truth_ref->mounting(T_rig_ref) &&
+        truth_cam->mounting(T_rig_cam)) {
       T = T_rig_ref.inverse() * T_rig_cam;
       source = "sim rig mounting";
     }
@@ -468,7 +473,8 @@ void DevicePipeline::process_reference(uint64_t now_us) {
   }
   last_frame_us_ = now_us;
   Pose known;
-  const bool has_known = devices_.known_pose(ref.index, ref.held->sequence, known);
+  const hal::TruthSource* truth = devices_.truth(ref.index);
+  const bool has_known = truth != nullptr && truth->pose_of(ref.held->sequence, known);
   // A tracked map starts at the pose the robot's flange and the calibrated hand-eye mounting give.
   const bool starts = config_.tracked && (!mapper_.placed() || mapper_.map_frames() == 0);
   const Pose start = starts ? tracking_start_pose(ref.held->sequence) : Pose::identity();
@@ -512,8 +518,9 @@ void DevicePipeline::process_reference(uint64_t now_us) {
 // pose is available), the hand-eye mounting and the reference camera's mounting on the rig.
 Pose DevicePipeline::tracking_start_pose(uint32_t sequence) {
   const CameraStream& ref = cams_[order_[0]];
+  const hal::TruthSource* truth = devices_.truth(ref.index);
   Pose T_world_flange;
-  if (!devices_.flange_pose(ref.index, sequence, T_world_flange)) {
+  if (truth == nullptr || !truth->flange_pose_of(sequence, T_world_flange)) {
     std::printf("tracking: no robot pose: the map starts at the identity\n");
     return Pose::identity();
   }
@@ -522,7 +529,7 @@ Pose DevicePipeline::tracking_start_pose(uint32_t sequence) {
   if (const runtime::SensorPair* p = runtime::calib_find_pair(calib_, "rig", ref.name.c_str())) {
     T_rig_ref = to_pose(p->T_from_to);
     mount = "calibration store";
-  } else if (devices_.sim_mounting(ref.index, T_rig_ref)) {
+  } else if (truth->mounting(T_rig_ref)) {
     mount = "sim mounting";
   }
   const Pose T = T_world_flange * to_pose(calib_.T_flange_rig) * T_rig_ref;

@@ -69,6 +69,7 @@ struct DevicePipelineConfig {
   float min_score = 0.3f;   //!< localiser's own acceptance (the runtime filters again by its param)
   bool tracked = false;     //!< poses by ICP tracking (else the backend's known poses)
   bool auto_poses = false;  //!< known poses when the reference camera's backend has them, else tracked
+  bool inject_faults = false;  //!< cameras wrapped in FaultCameras (devices().faults(i)): tests
   bool push_every_frame = false;  //!< tracked: integrate every frame (else after 1 cm / 1 degree)
   double replay_speed = 1;  //!< replayed cameras' playback speed (1: the recorded rate)
   std::string fuse;         //!< cameras feeding the map, "a,b" (first: reference); "" : hal.toml's first
@@ -108,7 +109,7 @@ class DevicePipeline final : public runtime::Pipeline {
   //! `sequence`) * T_flange_rig (hand-eye, calibration) * T_rig_ref; the identity without a robot pose.
   //! \param sequence the first frame's sequence number
   Pose tracking_start_pose(uint32_t sequence);
-  //! The board's devices (tests inject faults through their FaultCameras).
+  //! The board's devices (with inject_faults, tests inject faults through devices().faults(i)).
   hal::HalDevices& devices() { return devices_; }
   //! Camera i's stream (counters, extrinsics); i < device_count().
   const CameraStream& camera_stream(int i) const { return cams_[i]; }

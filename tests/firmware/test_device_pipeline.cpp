@@ -136,6 +136,7 @@ std::unique_ptr<firmware::DevicePipeline> fusing_pipeline(const char* fuse) {
 TEST(DevicePipeline, CameraFaultsKeepTheMap) {
   firmware::DevicePipelineConfig c;
   c.board = kBuildBoard.name;
+  c.inject_faults = true;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
   CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
@@ -143,7 +144,8 @@ TEST(DevicePipeline, CameraFaultsKeepTheMap) {
   CHECK_TRUE(p->start_mapping(&why));
   CHECK_TRUE(step_frames(*p, 3));
   const hal::AcquisitionCounters& k = p->camera_stream(0).counters;
-  hal::FaultCamera& cam = p->devices().camera(0);
+  CHECK_TRUE(p->devices().faults(0) != nullptr);
+  hal::FaultCamera& cam = *p->devices().faults(0);
 
   // Stall longer than the worker's 1 s stall limit: stop, back off, reopen.
   const uint32_t timeouts_before = k.timeouts.load();
@@ -281,7 +283,7 @@ TEST(DevicePipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
       continue;
     last_checked_us = tof.paired_stamp_us;
     Pose truth;
-    CHECK_TRUE(p->devices().known_pose(tof.index, tof.held->sequence, truth));
+    CHECK_TRUE(p->devices().truth(tof.index)->pose_of(tof.held->sequence, truth));
     const Pose placed = p->reference_pose_at(tof.held->stamp_us) * tof.T_ref_cam;
     const Pose nearest = p->reference_pose_at(p->reference_stamp_us()) * tof.T_ref_cam;
     CHECK_TRUE((placed.R - truth.R).norm() < 1e-4f);
@@ -341,7 +343,7 @@ TEST(DevicePipeline, TrackingStartsAtFlangeTimesHandEye) {
   std::string err;
   CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
   Pose truth;
-  CHECK_TRUE(p->devices().known_pose(0, 7, truth));
+  CHECK_TRUE(p->devices().truth(0)->pose_of(7, truth));
   const Pose a = p->tracking_start_pose(7);
   CHECK_TRUE((a.t - truth.t).norm() < 1e-5f);
   runtime::CalibrationData d;
