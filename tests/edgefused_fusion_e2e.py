@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """End to end with the real pipeline: edgefused on host-sim replays the bin_rig_a rig set
 (--set sensors.replay=DIR: the xtion's frames through the HAL's replay backend, each once, at the
-set's ground-truth poses; the rig's object models from its rig.toml), is driven over its console
-pseudo-terminal (scan start; the still-period trigger after the recording ends; localize), and
+set's ground-truth poses with tracking.poses=known; the rig's object models from its rig.toml), is
+driven over its console pseudo-terminal (scan start; the still-period trigger after the recording ends; localize), and
 streams the poses over TCP to `edgefuse listen --csv`; `edgefuse eval poses` compares them with the
 set's objects.txt (symmetry-aware).
 
@@ -15,8 +15,9 @@ positive above localize.min_score).
 
 usage: edgefused_fusion_e2e.py EDGEFUSED EDGEFUSE DATA_DIR WORKDIR [sanitized|plain] [fixed|float]
 Skips (exit 0 with a message) when DATA_DIR/bin_rig_a is absent. A second run tracks the poses
-(tracking.poses=tracked); a third uses the sim backend's own scene (no replay, no models):
-model-free segments must lie at every object of objects.txt.
+(tracking.poses=tracked, starting at the recording's pose with tracking.sim_truth=true); a third
+uses the sim backend's own scene at its known poses (no replay, no models): model-free segments
+must lie at every object of objects.txt.
 """
 import os
 import re
@@ -92,8 +93,8 @@ os.makedirs(WORK)
 # newest-frame policy, so a frame is dropped when processing falls behind the camera, and five
 # helpers compiling on a 2-core machine slow the integration several-fold (measured: 8 of 20 frames
 # dropped at the recorded rate under a load of 9). The poses depend on every frame being in the map.
-d, log, info = start(["--set", "sensors.replay=" + RIG, "--set", "localize.still_period_s=1",
-                      "--set", "sensors.replay_speed=0.5"], "edgefused.log")
+d, log, info = start(["--set", "sensors.replay=" + RIG, "--set", "tracking.poses=known", "--set",
+                      "localize.still_period_s=1", "--set", "sensors.replay_speed=0.5"], "edgefused.log")
 check("ready" in info, "edgefused started with the real pipeline on the replay of bin_rig_a")
 log.seek(0)
 startup = log.read()
@@ -224,7 +225,8 @@ if failures:
     print(text)
 
 # --- tracked poses: the same replay, poses by ICP tracking against the raycast model (from the first
-# frame's known pose), every frame pushed. Measured: tracking 0.4-0.5 mm from the truth at the last
+# frame's recorded pose standing in for the robot's, tracking.sim_truth), every frame pushed.
+# Measured: tracking 0.4-0.5 mm from the truth at the last
 # frame; all six objects within 5 mm / 5 deg. Required: no lost frame, all six, no false positive.
 # (Box 3, in the bin's corner, is the knife edge of the tracked map: without the localiser's recheck
 # round, LocalizeParams::recheck_score, it is missed, and a raycast rounding change of 1e-7 m lets a
@@ -233,7 +235,8 @@ if failures:
 # loaded 2-core machine, and with the newest-frame policy a late frame is dropped, which changes
 # the map (measured: 2 of 20 frames dropped under load lost the can).
 d, log, info = start(["--set", "sensors.replay=" + RIG, "--set", "localize.still_period_s=1", "--set",
-                      "tracking.poses=tracked", "--set", "tracking.push_every_frame=true",
+                      "tracking.poses=tracked", "--set", "tracking.sim_truth=true",
+                      "--set", "tracking.push_every_frame=true",
                       "--set", "sensors.replay_speed=0.25"], "edgefused_tracked.log")
 check("ready" in info, "edgefused started with tracking.poses=tracked")
 if "ready" in info:
@@ -295,7 +298,7 @@ for line in open(os.path.join(RIG, "objects.txt")):
     f = line.split()
     if len(f) >= 8 and not line.startswith("#"):
         truth[int(f[0])] = (float(f[1]), float(f[2]))
-d, log, info = start([], "edgefused_sim.log")
+d, log, info = start(["--set", "tracking.poses=known"], "edgefused_sim.log")
 check("ready" in info, "edgefused started on the sim backend (no replay)")
 if "ready" in info:
     port = int(info["tcp"].rsplit(":", 1)[1])

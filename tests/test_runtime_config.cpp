@@ -131,14 +131,21 @@ TEST(RuntimeConfig, ARefusedFileChangesNoValue) {
   std::remove(utf8.c_str());
 }
 
-TEST(RuntimeConfig, TheShippedHostSimConfigLoadsAndEqualsTheDefaults) {
+// host-sim is the simulator's board: its file asks for the backend's truth explicitly (known
+// poses, simulator truth for the robot pose and the mountings); every other key is the default.
+TEST(RuntimeConfig, TheShippedHostSimConfigLoadsAndEqualsTheDefaultsButTheSimulatorTruth) {
   ParamStore p;
   std::string err;
   CHECK_TEXT(hal::load_config_toml(std::string(EDGEFUSE_SOURCE_DIR) + "/board/host-sim/edgefused.toml", p, err),
              err.c_str());
   ParamStore defaults;
+  STRCMP_EQUAL("tracked", defaults.get_text(kTrackingPoses));
+  CHECK_FALSE(defaults.get_bool(kTrackingSimTruth));
+  STRCMP_EQUAL("known", p.get_text(kTrackingPoses));
+  CHECK_TRUE(p.get_bool(kTrackingSimTruth));
   char a[ParamStore::kTextCap], b[ParamStore::kTextCap];
   for (int i = 0; i < kParamCount; ++i) {
+    if (i == kTrackingPoses || i == kTrackingSimTruth) continue;
     p.format(i, a, sizeof(a));
     defaults.format(i, b, sizeof(b));
     STRCMP_EQUAL_TEXT(b, a, kParamDefs[i].key);

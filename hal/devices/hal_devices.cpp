@@ -46,37 +46,10 @@ struct HalDevices::Owned {
 HalDevices::HalDevices() : owned_(new Owned) { default_bin_scene(scene_); }
 HalDevices::~HalDevices() = default;
 
-bool HalDevices::known_pose(int i, uint32_t sequence, Pose& T_world_cam) const {
-  if (i < 0 || i >= int(cameras_.size())) return false;
-  if (sim_cameras_[std::size_t(i)] != nullptr) {
-    T_world_cam = sim_cameras_[std::size_t(i)]->pose_of(sequence);
-    return true;
-  }
-  if (replay_cameras_[std::size_t(i)] != nullptr) return replay_cameras_[std::size_t(i)]->pose_of(sequence, T_world_cam);
-  return false;
-}
-
 bool HalDevices::scanner_axis(Pose& T_world_axis0, Vec3f& axis_world) const {
   if (scanner_ == nullptr || !has_scanner_axis_) return false;
   T_world_axis0 = scanner_axis0_;
   axis_world = scanner_axis_;
-  return true;
-}
-
-bool HalDevices::flange_pose(int i, uint32_t sequence, Pose& T_world_flange) const {
-  if (i < 0 || i >= int(cameras_.size())) return false;
-  if (sim_cameras_[std::size_t(i)] != nullptr) {
-    const SimDepthCamera& c = *sim_cameras_[std::size_t(i)];
-    T_world_flange = c.pose_of(sequence) * c.config().T_rig_cam.inverse();
-    return true;
-  }
-  if (replay_cameras_[std::size_t(i)] != nullptr) return replay_cameras_[std::size_t(i)]->pose_of(sequence, T_world_flange);
-  return false;
-}
-
-bool HalDevices::sim_mounting(int i, Pose& T_rig_cam) const {
-  if (i < 0 || i >= int(cameras_.size()) || sim_cameras_[std::size_t(i)] == nullptr) return false;
-  T_rig_cam = sim_cameras_[std::size_t(i)]->config().T_rig_cam;
   return true;
 }
 
@@ -98,15 +71,14 @@ const char* HalDevices::built_backends() {
 }
 
 bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override,
-                       bool replay_loop, double replay_speed) {
+                       bool replay_loop, double replay_speed, bool inject_faults) {
   owned_->sim_monitor.reset(new SimDeviceMonitor(clock));
   monitor_ = owned_->sim_monitor.get();
   bool any_usb = false;
   uint64_t rig_epoch_us = 0;  // the sim rig's motion starts when its devices are built
   for (const io::BoardCamera& c : board.cameras) {
     std::unique_ptr<DepthCamera> cam;
-    const SimDepthCamera* sim_cam = nullptr;
-    const ReplayDepthCamera* replay_cam = nullptr;
+    const TruthSource* truth = nullptr;  // sim, or a recording with ground truth
     const io::CameraBackend backend = replay_override.empty() ? c.backend : io::CameraBackend::kReplay;
     const std::string where = "camera '" + c.name + "'";
     switch (backend) {
@@ -126,7 +98,7 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
         if (rig_epoch_us == 0) rig_epoch_us = clock.now_us();
         sc_cam->set_rig_epoch_us(rig_epoch_us);
         cam.reset(sc_cam);
-        sim_cam = sc_cam;
+        truth = sc_cam;
         break;
       }
       case io::CameraBackend::kReplay: {
@@ -140,7 +112,7 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
         }
         ReplayDepthCamera* rc = new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, replay_loop, replay_speed);
         cam.reset(rc);
-        replay_cam = rc;
+        if (rc->has_truth()) truth = rc;
         owned_->sequences.push_back(std::move(seq));
         break;
       }
@@ -193,8 +165,7 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
     any_usb = any_usb || (c.has_usb && replay_override.empty() && backend != io::CameraBackend::kSim);
     configs_.push_back(c);
     cameras_.push_back(cam.get());
-    sim_cameras_.push_back(sim_cam);
-    replay_cameras_.push_back(replay_cam);
+    truths_.push_back(truth);
     owned_->cameras.push_back(std::move(cam));
   }
 #if EDGEFUSE_HAVE_LIBUSB
@@ -265,8 +236,14 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
     }
     scanner_ = owned_->scanner.get();
   }
-  // Faults are injected through the simulated monitor even when libusb watches the real bus.
-  for (DepthCamera* cam : cameras_) faults_.emplace_back(new FaultCamera(*cam, clock, owned_->sim_monitor.get()));
+  // Faults only when asked for; an unplug is reported by the simulated monitor (even when libusb
+  // watches the real bus).
+  used_ = cameras_;
+  if (inject_faults)
+    for (std::size_t i = 0; i < cameras_.size(); ++i) {
+      faults_.emplace_back(new FaultCamera(*cameras_[i], clock, owned_->sim_monitor.get()));
+      used_[i] = faults_.back().get();
+    }
   return true;
 }
 

@@ -89,7 +89,7 @@ bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) 
     return false;
   }
   MapperParams mp;
-  mp.poses = config_.tracked ? PoseMode::kTracked : PoseMode::kKnown;
+  mp.poses = tracked() ? PoseMode::kTracked : PoseMode::kKnown;
   mp.tracker.push.every_frame = config.push_every_frame;
   mp.noise_weights = use_trust_;
   const CameraStream& ref = cams_[order_[0]];
@@ -121,7 +121,8 @@ bool DevicePipeline::init_cameras(const std::string& hal_path, std::string& err)
   if (!io::read_board_hal(hal_path, hal_data, err)) return false;
   // A replayed recording is one scan: it ends after its last frame (each frame integrated once) and
   // the rig then counts as still (the still-period trigger localises).
-  if (!devices_.build(hal_data, hal::monotonic_clock(), err, config_.replay, false, config_.replay_speed)) {
+  if (!devices_.build(hal_data, hal::monotonic_clock(), err, config_.replay, false, config_.replay_speed,
+                      config_.inject_faults)) {
     err = hal_path + ": " + err;
     return false;
   }
@@ -180,9 +181,12 @@ bool DevicePipeline::init_fused(const std::string& hal_path, std::string& err) {
     cams_[found].fuse = true;
     order_[fuse_count_++] = found;
   }
-  if (config_.auto_poses) {
-    Pose first;
-    config_.tracked = !devices_.known_pose(cams_[order_[0]].index, 0, first);
+  const CameraStream& ref = cams_[order_[0]];
+  if (config_.known_poses && devices_.truth(ref.index) == nullptr) {
+    err = "tracking.poses = known: camera '" + ref.name +
+          "' offers no true poses (only the sim backend and a replayed recording with ground truth do); "
+          "use tracking.poses = tracked";
+    return false;
   }
   return true;
 }
@@ -237,10 +241,12 @@ void DevicePipeline::print_setup() const {
               ref.name.c_str(), config_.replay.empty() ? "hal.toml backend" : "replay of ", config_.replay.c_str(),
               ref.slot.intr.width, ref.slot.intr.height, ref.slot.tof() ? "tof" : "structured-light",
               config_.bilateral ? "+bilateral" : "", volume_.dim(), volume_.voxel_m() * 1e3,
-              config_.tracked ? (config_.push_every_frame ? "tracked (ICP against the raycast model, every frame pushed)"
-                                                          : "tracked (ICP against the raycast model, push after 1 cm / 1 deg)")
-                              : "known (the backend's truth)",
+              tracked() ? (config_.push_every_frame ? "tracked (ICP against the raycast model, every frame pushed)"
+                                                    : "tracked (ICP against the raycast model, push after 1 cm / 1 deg)")
+                        : "known (the backend's truth)",
               threads_);
+  if (config_.use_sim_truth)
+    std::printf("pipeline: simulator truth allowed (tracking.sim_truth): robot pose, rig mountings, tracking error\n");
   std::string names, fused;
   for (int i = 0; i < camera_count_; ++i) names += (i ? ", " : "") + cams_[i].name;
   for (int k = 0; k < fuse_count_; ++k) fused += (k ? "," : "") + cams_[order_[k]].name;
@@ -287,7 +293,10 @@ void DevicePipeline::update_mounts() {
         source = "rig set extrinsics.txt (inverted)";
       }
     }
-    if (source == nullptr && devices_.sim_mounting(ref.index, T_rig_ref) && devices_.sim_mounting(c.index, T_rig_cam)) {
+    const hal::TruthSource* truth_ref = sim_truth(ref.index);
+    const hal::TruthSource* truth_cam = sim_truth(c.index);
+    if (source == nullptr && truth_ref != nullptr && truth_cam != nullptr && truth_ref->mounting(T_rig_ref) &&
+        truth_cam->mounting(T_rig_cam)) {
       T = T_rig_ref.inverse() * T_rig_cam;
       source = "sim rig mounting";
     }
@@ -467,10 +476,13 @@ void DevicePipeline::process_reference(uint64_t now_us) {
     stats_.fps = stats_.fps <= 0 ? inst : 0.9f * stats_.fps + 0.1f * inst;
   }
   last_frame_us_ = now_us;
+  // The backend's truth: the frame's pose with tracking.poses = known, the tracking error's
+  // reference with tracking.sim_truth; never otherwise.
+  const hal::TruthSource* truth = tracked() ? sim_truth(ref.index) : devices_.truth(ref.index);
   Pose known;
-  const bool has_known = devices_.known_pose(ref.index, ref.held->sequence, known);
+  const bool has_known = truth != nullptr && truth->pose_of(ref.held->sequence, known);
   // A tracked map starts at the pose the robot's flange and the calibrated hand-eye mounting give.
-  const bool starts = config_.tracked && (!mapper_.placed() || mapper_.map_frames() == 0);
+  const bool starts = tracked() && (!mapper_.placed() || mapper_.map_frames() == 0);
   const Pose start = starts ? tracking_start_pose(ref.held->sequence) : Pose::identity();
   ReferenceStep step;
   const Status s = mapper_.map_reference(ref.slot, ref.held_frame(), has_known ? &known : nullptr, start, step);
@@ -485,7 +497,7 @@ void DevicePipeline::process_reference(uint64_t now_us) {
     ++pipeline_drops_;
     return;
   }
-  if (config_.tracked) {
+  if (tracked()) {
     stats_.tracking = runtime_state(step.track.state);
     if (step.track.state == TrackState::kLost) ++lost_frames_;
     if (has_known) track_err_m_ = (step.T_world_cam.t - known.t).norm();  // against the backend's truth
@@ -512,9 +524,13 @@ void DevicePipeline::process_reference(uint64_t now_us) {
 // pose is available), the hand-eye mounting and the reference camera's mounting on the rig.
 Pose DevicePipeline::tracking_start_pose(uint32_t sequence) {
   const CameraStream& ref = cams_[order_[0]];
+  const hal::TruthSource* truth = sim_truth(ref.index);
   Pose T_world_flange;
-  if (!devices_.flange_pose(ref.index, sequence, T_world_flange)) {
-    std::printf("tracking: no robot pose: the map starts at the identity\n");
+  if (truth == nullptr || !truth->flange_pose_of(sequence, T_world_flange)) {
+    std::printf("tracking: no robot pose%s: the map starts at the identity\n",
+                truth == nullptr && devices_.truth(ref.index) != nullptr
+                    ? " (the backend's truth may stand in for it with tracking.sim_truth = true)"
+                    : "");
     return Pose::identity();
   }
   Pose T_rig_ref = Pose::identity();
@@ -522,7 +538,7 @@ Pose DevicePipeline::tracking_start_pose(uint32_t sequence) {
   if (const runtime::SensorPair* p = runtime::calib_find_pair(calib_, "rig", ref.name.c_str())) {
     T_rig_ref = to_pose(p->T_from_to);
     mount = "calibration store";
-  } else if (devices_.sim_mounting(ref.index, T_rig_ref)) {
+  } else if (truth->mounting(T_rig_ref)) {
     mount = "sim mounting";
   }
   const Pose T = T_world_flange * to_pose(calib_.T_flange_rig) * T_rig_ref;
@@ -608,9 +624,11 @@ void DevicePipeline::run_localization() {
   std::printf("localize: %zu frames in the map, surface %zu points, floor %s, %zu %s, %.0f ms CPU\n",
               size_t(mapper_.map_frames()), report.surface_points, loc_.context().has_floor ? "found" : "not found",
               report.count, request.segments ? "segments" : "objects", last_localize_cpu_ms_);
-  if (config_.tracked)
+  if (tracked() && sim_truth(cams_[order_[0]].index) != nullptr)
     std::printf("localize: tracking: %u lost frames, last pose %.2f mm from the backend's truth\n",
                 unsigned(lost_frames_), double(track_err_m_) * 1e3);
+  else if (tracked())
+    std::printf("localize: tracking: %u lost frames\n", unsigned(lost_frames_));
   std::fflush(stdout);
 }
 

@@ -12,22 +12,27 @@
 // (reference_pose_at: constant velocity through the reference's last two poses) times its
 // extrinsics T_ref_cam: the calibration store's pair (ref,
 // cam), else the store's rig mountings of both, else the replayed rig set's extrinsics.txt, else
-// the sim backend's mounting. With more than one camera in the map each pixel's weight follows its
+// (tracking.sim_truth) the sim backend's mountings. With more than one camera in the map each pixel's weight follows its
 // sensor's noise model (trust maps, as `edgefuse fuse --sensors`). Every camera streams (and is
 // counted in `status`) whether it feeds the map or not, so `calib fuse` can use its newest frame.
 // The line scanner (sensors.fuse lists it by name) streams on its own thread too; every profile is
 // integrated (integrate_profile) at the pose its axis position gives along the axis the backend
 // reports (HalDevices::scanner_axis), once the reference camera has placed the map.
 //
-// Poses (tracking.poses): "auto" (default) = "known" when the reference camera's backend knows its
-// poses (sim, a replay with ground truth), else "tracked" (a real camera); "known" = the backend's known poses (sim: the simulated rig's motion;
-// replay: the recording's ground truth), every frame pushed; "tracked" = the tracking module (ICP
-// against the model raycast at the last good pose, push after 1 cm / 1 degree), starting at the
-// pose composed from the robot's flange pose at the map's first frame, the hand-eye mounting
-// T_flange_rig of the calibration store and the reference camera's mounting on the rig T_rig_ref
-// (calibration store, else the sim mounting, else the identity); without a robot pose (a real
-// device, no robot link yet) the identity. With "known", a camera without
-// known poses (a real device) has its frames counted as drops and says so once.
+// Poses (tracking.poses): "tracked" (default) = the tracking module (ICP against the model
+// raycast at the last good pose, push after 1 cm / 1 degree), starting at the pose composed from
+// the robot's flange pose at the map's first frame, the hand-eye mounting T_flange_rig of the
+// calibration store and the reference camera's mounting on the rig T_rig_ref (calibration store,
+// else the identity); without a robot pose (a real device, no robot link yet) the identity.
+// "known" = every frame at the reference camera's true pose from its backend's simulator truth
+// (hal::TruthSource: sim = the simulated rig's motion; replay = the recording's ground truth),
+// every frame pushed; refused at start-up when the reference camera offers no truth (a real
+// device, a recording without poses); a frame without a pose is counted as a drop, said once.
+// Simulator truth (tracking.sim_truth, off by default) may further stand in for what a real rig
+// gets from its robot and its calibration: the flange pose of a tracked map's start (sim robot /
+// the rig set's reference sensor), the sim rig's mountings (T_rig_ref of the start pose, and a
+// paired camera's extrinsics after the store and the rig set's extrinsics.txt), and the tracking
+// error reported at each localisation. Nothing else takes the backend's truth.
 //
 // Memory: everything is allocated in init() (arena carve as CoreSetup does, models, worker threads,
 // the localisation thread); step() and the localisation run without the heap (the replay backend's
@@ -67,8 +72,11 @@ struct DevicePipelineConfig {
   float trunc_m = 0.008f;   //!< TSDF truncation
   bool bilateral = false;   //!< bilateral filter on
   float min_score = 0.3f;   //!< localiser's own acceptance (the runtime filters again by its param)
-  bool tracked = false;     //!< poses by ICP tracking (else the backend's known poses)
-  bool auto_poses = false;  //!< known poses when the reference camera's backend has them, else tracked
+  bool known_poses = false;    //!< every frame at the reference camera's true pose (its hal::TruthSource;
+                               //!< refused at init without one); else tracked by ICP
+  bool use_sim_truth = false;  //!< simulator truth stands in for the robot's flange pose, the rig
+                               //!< mountings and the tracking error's reference (tracking.sim_truth)
+  bool inject_faults = false;  //!< cameras wrapped in FaultCameras (devices().faults(i)): tests
   bool push_every_frame = false;  //!< tracked: integrate every frame (else after 1 cm / 1 degree)
   double replay_speed = 1;  //!< replayed cameras' playback speed (1: the recorded rate)
   std::string fuse;         //!< cameras feeding the map, "a,b" (first: reference); "" : hal.toml's first
@@ -108,7 +116,7 @@ class DevicePipeline final : public runtime::Pipeline {
   //! `sequence`) * T_flange_rig (hand-eye, calibration) * T_rig_ref; the identity without a robot pose.
   //! \param sequence the first frame's sequence number
   Pose tracking_start_pose(uint32_t sequence);
-  //! The board's devices (tests inject faults through their FaultCameras).
+  //! The board's devices (with inject_faults, tests inject faults through devices().faults(i)).
   hal::HalDevices& devices() { return devices_; }
   //! Camera i's stream (counters, extrinsics); i < device_count().
   const CameraStream& camera_stream(int i) const { return cams_[i]; }
@@ -142,6 +150,11 @@ class DevicePipeline final : public runtime::Pipeline {
   void update_mounts();
   void update_drops();
   void run_localization();
+  bool tracked() const { return !config_.known_poses; }
+  //! Camera `index`'s simulator truth when tracking.sim_truth allows it, else null.
+  const hal::TruthSource* sim_truth(int index) const {
+    return config_.use_sim_truth ? devices_.truth(index) : nullptr;
+  }
 
   DevicePipelineConfig config_;
   hal::HalDevices devices_;

@@ -117,8 +117,8 @@ bool check_combinations(std::string& err) {
     return false;
   }
   const std::string poses = g_params.get_text(runtime::kTrackingPoses);
-  if (poses != "known" && poses != "tracked" && poses != "auto") {
-    err = "tracking.poses = '" + poses + "' is not one of auto|known|tracked";
+  if (poses != "known" && poses != "tracked") {
+    err = "tracking.poses = '" + poses + "' is not one of known|tracked";
     return false;
   }
   return true;
@@ -133,8 +133,8 @@ bool start_device_pipeline(const std::string& board, std::string& err) {
   fc.voxel_m = float(g_params.get_number(runtime::kTsdfVoxelM));
   fc.trunc_m = float(g_params.get_number(runtime::kTsdfTruncM));
   fc.bilateral = g_params.get_bool(runtime::kFiltersBilateral);
-  fc.tracked = poses == "tracked";
-  fc.auto_poses = poses == "auto";
+  fc.known_poses = poses == "known";
+  fc.use_sim_truth = g_params.get_bool(runtime::kTrackingSimTruth);
   fc.push_every_frame = g_params.get_bool(runtime::kTrackingPushEveryFrame);
   fc.fuse = g_params.get_text(runtime::kSensorsFuse);
   fc.replay_speed = g_params.get_number(runtime::kSensorsReplaySpeed);

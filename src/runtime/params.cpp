@@ -41,11 +41,14 @@ const ParamDef kParamDefs[kParamCount] = {
      "a PLY model or a folder of them ('' : a replayed rig set's models, else model-free segments)"},
     {"filters.bilateral", ParamType::kBool, 0, 1, "false", false,
      "bilateral depth filter before integration (the sensor kind's masks always run)"},
-    {"tracking.poses", ParamType::kString, 0, kParamTextMax, "auto", false,
-     "'auto' (known when the backend knows the poses, else tracked), 'known' (the sim / replay backend's true "
-     "poses) or 'tracked' (ICP against the raycast model)"},
+    {"tracking.poses", ParamType::kString, 0, kParamTextMax, "tracked", false,
+     "'tracked' (ICP against the raycast model) or 'known' (every frame at the sim / replay backend's true "
+     "pose; refused when the reference camera has none)"},
     {"tracking.push_every_frame", ParamType::kBool, 0, 1, "false", false,
      "tracked: integrate every frame (else when the sensor moved 1 cm or 1 degree)"},
+    {"tracking.sim_truth", ParamType::kBool, 0, 1, "false", false,
+     "sim / replay only: the backend's truth stands in for the robot's flange pose (tracked start pose), the "
+     "rig mountings (when the calibration store and the rig set give none) and the tracking error's reference"},
     // edgefused: which cameras feed the map
     {"sensors.fuse", ParamType::kString, 0, kParamTextMax, "", false,
      "cameras feeding the map, e.g. 'xtion,tof' (the first is the reference whose poses are known or tracked); "

@@ -1,4 +1,4 @@
-// edgefused's real pipeline (tools/edgefused/fusion_pipeline.cpp) on host-sim's sim backend: frames
+// edgefused's real pipeline (src/firmware/device_pipeline.cpp) on host-sim's sim backend: frames
 // through the HAL, filters, known or tracked poses, integration and a model-free localisation, with
 // no heap allocation once started (mapping, tracking and the localisation thread), and the states
 // the runtime sees (empty map refused, tracking state, still detection off while the rig moves).
@@ -6,10 +6,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include <filesystem>
 #include <memory>
 #include <string>
 
 #include "alloc_counter.hpp"
+#include "test_support.hpp"
 #include "edgefuse/board_config.hpp"
 #include "edgefuse/fusion/fusion_rules.hpp"
 #include "device_pipeline.hpp"
@@ -56,10 +58,12 @@ bool localize(firmware::DevicePipeline& p, runtime::LocalizationOutcome& r) {
   return false;
 }
 
+// Tracked: from the sim robot's flange pose (simulator truth allowed), as edgefused on host-sim.
 void run_pipeline(bool tracked) {
   firmware::DevicePipelineConfig c;
   c.board = kBuildBoard.name;
-  c.tracked = tracked;
+  c.known_poses = !tracked;
+  c.use_sim_truth = tracked;
   c.push_every_frame = true;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
@@ -117,12 +121,15 @@ bool wait_state(firmware::DevicePipeline& p, hal::DeviceState s) {
   while (p.camera_stream(0).counters.device_state() != s && now_us() < end) step_for(p, 5);
   return p.camera_stream(0).counters.device_state() == s;
 }
-// A pipeline of the build board with sensors.fuse = `fuse`, initialised (the checks are the
-// calling test's) and not mapping yet.
+// A pipeline of the build board with sensors.fuse = `fuse` at the sim rig's known poses, the sim
+// mountings allowed (tracking.sim_truth), initialised (the checks are the calling test's) and not
+// mapping yet.
 std::unique_ptr<firmware::DevicePipeline> fusing_pipeline(const char* fuse) {
   firmware::DevicePipelineConfig c;
   c.board = kBuildBoard.name;
   c.fuse = fuse;
+  c.known_poses = true;
+  c.use_sim_truth = true;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
   CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
@@ -136,6 +143,8 @@ std::unique_ptr<firmware::DevicePipeline> fusing_pipeline(const char* fuse) {
 TEST(DevicePipeline, CameraFaultsKeepTheMap) {
   firmware::DevicePipelineConfig c;
   c.board = kBuildBoard.name;
+  c.known_poses = true;
+  c.inject_faults = true;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
   CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
@@ -143,7 +152,8 @@ TEST(DevicePipeline, CameraFaultsKeepTheMap) {
   CHECK_TRUE(p->start_mapping(&why));
   CHECK_TRUE(step_frames(*p, 3));
   const hal::AcquisitionCounters& k = p->camera_stream(0).counters;
-  hal::FaultCamera& cam = p->devices().camera(0);
+  CHECK_TRUE(p->devices().faults(0) != nullptr);
+  hal::FaultCamera& cam = *p->devices().faults(0);
 
   // Stall longer than the worker's 1 s stall limit: stop, back off, reopen.
   const uint32_t timeouts_before = k.timeouts.load();
@@ -281,7 +291,7 @@ TEST(DevicePipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
       continue;
     last_checked_us = tof.paired_stamp_us;
     Pose truth;
-    CHECK_TRUE(p->devices().known_pose(tof.index, tof.held->sequence, truth));
+    CHECK_TRUE(p->devices().truth(tof.index)->pose_of(tof.held->sequence, truth));
     const Pose placed = p->reference_pose_at(tof.held->stamp_us) * tof.T_ref_cam;
     const Pose nearest = p->reference_pose_at(p->reference_stamp_us()) * tof.T_ref_cam;
     CHECK_TRUE((placed.R - truth.R).norm() < 1e-4f);
@@ -336,12 +346,12 @@ TEST(DevicePipeline, LineScannerFeedsTheMap) {
 TEST(DevicePipeline, TrackingStartsAtFlangeTimesHandEye) {
   firmware::DevicePipelineConfig c;
   c.board = kBuildBoard.name;
-  c.tracked = true;
+  c.use_sim_truth = true;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
   CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
   Pose truth;
-  CHECK_TRUE(p->devices().known_pose(0, 7, truth));
+  CHECK_TRUE(p->devices().truth(0)->pose_of(7, truth));
   const Pose a = p->tracking_start_pose(7);
   CHECK_TRUE((a.t - truth.t).norm() < 1e-5f);
   runtime::CalibrationData d;
@@ -349,6 +359,49 @@ TEST(DevicePipeline, TrackingStartsAtFlangeTimesHandEye) {
   p->calibration_changed(d);
   const Pose b = p->tracking_start_pose(7);
   CHECK_TRUE((b.t - (truth.t + truth.R * Vec3f(0.01f, 0, 0))).norm() < 1e-5f);
+}
+
+// Simulator truth only when configured: without tracking.sim_truth a tracked map starts at the
+// identity though the sim robot's pose is there, and a paired camera takes no sim mounting; no
+// FaultCameras unless asked for.
+TEST(DevicePipeline, SimTruthOnlyWhenConfigured) {
+  firmware::DevicePipelineConfig c;
+  c.board = kBuildBoard.name;
+  c.fuse = "xtion,tof";
+  std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
+  std::string err;
+  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  CHECK_TRUE(p->devices().truth(0) != nullptr);  // offered by the sim backend...
+  const Pose a = p->tracking_start_pose(7);     // ...but not taken
+  CHECK_TRUE(a.t.norm() == 0.0f && (a.R - Pose::identity().R).norm() == 0.0f);
+  STRCMP_EQUAL("none", p->camera_stream(1).mount_source);
+  CHECK_TRUE(p->devices().faults(0) == nullptr);
+}
+
+// tracking.poses = known with a reference camera that offers no truth (here bin_rig_a replayed
+// without the xtion's groundtruth.txt) is refused at start-up, naming the camera.
+TEST(DevicePipeline, KnownPosesWithoutTruthRefused) {
+  const std::string rig = edgefuse_test::require_data("bin_rig_a");
+  if (rig.empty()) return;
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("edgefuse_no_truth_" + std::to_string(now_us()));
+  fs::create_directories(dir / "xtion");
+  for (const char* e : {"rig.toml", "extrinsics.txt", "objects.txt", "models", "tof", "laser"})
+    fs::create_symlink(fs::path(rig) / e, dir / e);
+  for (const char* e : {"depth", "depth.txt", "rgb", "rgb.txt"})  // no groundtruth.txt
+    fs::create_symlink(fs::path(rig) / "xtion" / e, dir / "xtion" / e);
+  firmware::DevicePipelineConfig c;
+  c.board = kBuildBoard.name;
+  c.replay = dir.string();
+  c.known_poses = true;
+  std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
+  std::string err;
+  CHECK_FALSE(p->init(c, err));
+  CHECK_TRUE_TEXT(err.find("tracking.poses = known: camera 'xtion' offers no true poses") == 0, err.c_str());
+  CHECK_TRUE(p->devices().truth(0) == nullptr);  // the recording has no truth for the xtion
+  CHECK_TRUE(p->devices().truth(1) != nullptr);  // the tof's groundtruth.txt is there
+  p.reset();
+  fs::remove_all(dir);
 }
 
 // A sensor that is not a camera of hal.toml is refused at start-up with the key and the names.

@@ -4,7 +4,8 @@
 usage: tools/bench/edgefused_recall.py BUILD_DIR RIG_SET WORKDIR [--set KEY=VALUE ...]
 e.g.   tools/bench/edgefused_recall.py build/host ../shared/data/bin_rig_a /tmp/recall --set sensors.fuse=xtion,tof
 
-Starts edgefused replaying the set (localize.still_period_s=1), `scan start` on its console pty,
+Starts edgefused replaying the set at its ground-truth poses (tracking.poses=known; a --set
+tracking.poses=tracked overrides it) with localize.still_period_s=1, `scan start` on its console pty,
 takes the still-period result with `edgefuse listen --csv`, prints `status` (frames, drops and
 every camera's acquisition counters), `edgefuse eval poses` against the set's objects.txt and
 edgefused's localisation and extrinsics lines.
@@ -21,7 +22,7 @@ os.makedirs(work, exist_ok=True)
 log = open(work + "/log.txt", "w+")
 d = subprocess.Popen([EDGEFUSED, "--set", "link.tcp_port=0", "--set", "link.serial=", "--set", "console.echo=false",
                       "--set", "calib.dir=" + work + "/calib", "--set", "sensors.replay=" + RIG,
-                      "--set", "localize.still_period_s=1"] + extra, stdout=log, stderr=subprocess.STDOUT, cwd=work)
+                      "--set", "tracking.poses=known", "--set", "localize.still_period_s=1"] + extra, stdout=log, stderr=subprocess.STDOUT, cwd=work)
 info = {}
 end = time.monotonic() + 120
 while time.monotonic() < end and "ready" not in info and d.poll() is None:

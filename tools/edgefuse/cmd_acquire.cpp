@@ -68,7 +68,8 @@ int cmd_acquire(int argc, char** argv) {
   }
   hal::MonotonicClock& clock = hal::monotonic_clock();
   hal::HalDevices devices;
-  if (!devices.build(hal_data, clock, err, args.get("replay"))) {
+  // --fault: the cameras are wrapped in FaultCameras (only then).
+  if (!devices.build(hal_data, clock, err, args.get("replay"), true, 1.0, !fault.empty())) {
     std::fprintf(stderr, "edgefuse acquire: %s: %s\n", path.c_str(), err.c_str());
     return 1;
   }
@@ -141,7 +142,7 @@ int cmd_acquire(int argc, char** argv) {
     }
     profiles += g_profiles.drain([](const hal::LineProfile&) {});
     if (!fault_done && elapsed() >= fault_at) {
-      hal::FaultCamera& cam = devices.camera(0);
+      hal::FaultCamera& cam = *devices.faults(0);
       if (fault == "stall") cam.inject_stall(1500);
       if (fault == "drop") cam.inject_drop(5);
       if (fault == "garbage") cam.inject_garbage(hal::GarbageKind::kAllInvalid);
@@ -150,7 +151,7 @@ int cmd_acquire(int argc, char** argv) {
       fault_done = true;
     }
     if (!replugged && elapsed() >= fault_at + 1.0) {
-      devices.camera(0).set_plugged(true);
+      devices.faults(0)->set_plugged(true);
       std::printf("%.1f s: replugged '%s'\n", elapsed(), devices.camera(0).name());
       replugged = true;
     }

@@ -48,6 +48,7 @@ enum ParamId : int {
   kFiltersBilateral,
   kTrackingPoses,
   kTrackingPushEveryFrame,
+  kTrackingSimTruth,
   // edgefused: which cameras feed the map
   kSensorsFuse,
   kSensorsReplaySpeed,

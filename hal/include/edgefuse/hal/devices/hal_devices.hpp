@@ -1,6 +1,8 @@
 // The board's devices built from board/<name>/hal.toml at start-up (the one place that knows every
-// backend): each [[camera]] becomes a sim, replay, openni2, v4l2 or null DepthCamera, wrapped in a
-// FaultCamera so the console can inject faults into any of them; the first [[line_scanner]] becomes
+// backend): each [[camera]] becomes a sim, replay, openni2, v4l2 or null DepthCamera (wrapped in
+// the simulator's FaultCamera only when build() is asked to inject faults: tests, `edgefuse
+// acquire --fault`); the sim and replay cameras offer simulator truth (TruthSource, truth(i)),
+// which their users take only when configured to; the first [[line_scanner]] becomes
 // a sim scanner (fired by a free-running simulated trigger at 100 Hz, or by the gpiod line of its
 // trigger_pin when this build has libgpiod) or a replay of a rig set's profiles; the hot-plug monitor is libusb
 // when a camera lists USB ids (and libusb is built), else the simulated one. Backends that this
@@ -19,12 +21,10 @@
 #include "edgefuse/hal/sim/fault_camera.hpp"
 #include "edgefuse/hal/line_scanner.hpp"
 #include "edgefuse/hal/trigger.hpp"
+#include "edgefuse/hal/truth_source.hpp"
 #include "edgefuse/hal/sim/sim_scene.hpp"
 
 namespace edgefuse::hal {
-
-class SimDepthCamera;
-class ReplayDepthCamera;
 
 class HalDevices {
  public:
@@ -35,33 +35,28 @@ class HalDevices {
   //! \param replay_override a data set folder: every camera replays its sensor from it instead
   //! \param replay_loop replayed recordings start again after their last frame (else end of stream)
   //! \param replay_speed playback speed of replayed cameras (1: the recorded rate; 0.5: half of it)
+  //! \param inject_faults wrap every camera in a FaultCamera (faults(i)) whose unplug/replug the
+  //! simulated monitor reports; else camera(i) is the backend itself
   bool build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override = "",
-             bool replay_loop = true, double replay_speed = 1.0);
+             bool replay_loop = true, double replay_speed = 1.0, bool inject_faults = false);
   int camera_count() const { return int(cameras_.size()); }
-  //! Camera i as the runtime uses it (inside its FaultCamera).
+  //! Camera i as the runtime uses it: the backend, or its FaultCamera when faults are injected.
   //! \param i index in hal.toml order
-  FaultCamera& camera(int i) { return *faults_[std::size_t(i)]; }
+  DepthCamera& camera(int i) { return *used_[std::size_t(i)]; }
+  //! Camera i's fault injection, or null unless build() was asked to inject faults.
+  //! \param i index in hal.toml order
+  FaultCamera* faults(int i) { return faults_.empty() ? nullptr : faults_[std::size_t(i)].get(); }
   const io::BoardCamera& camera_config(int i) const { return configs_[std::size_t(i)]; }
   DeviceMonitor& monitor() { return *monitor_; }
   //! The line scanner, or null when the board has none.
   LineScanner* scanner() { return scanner_; }
-  //! The true pose of a frame of camera i when its backend knows it (sim: the simulated rig's
-  //! motion; replay: the recording's ground truth of that frame); edgefused uses it
-  //! in place of tracking when configured. \return false for real devices or without truth
-  //! \param i camera index  \param sequence the frame's device sequence number
-  //! \param T_world_cam receives the camera-to-world pose
-  bool known_pose(int i, uint32_t sequence, Pose& T_world_cam) const;
-  //! The robot's flange pose at frame `sequence` of camera i where the simulation stands in for a
-  //! robot: the sim backend's robot carries the rig with the flange at the rig's origin (its
-  //! pose is the camera's pose times the camera's mounting inverted); a replayed rig set's rig
-  //! frame is its reference sensor's, so the frame's ground truth. Real devices: no robot pose.
-  //! \param i camera index  \param sequence the frame's sequence number  \param T_world_flange receives it
-  //! \return false when no robot pose is available
-  bool flange_pose(int i, uint32_t sequence, Pose& T_world_flange) const;
-  //! Mounting of camera i on the rig when its backend knows it (sim: the simulated rig's mounting;
-  //! edgefused falls back to it when no calibration gives the camera's extrinsics).
-  //! \param i camera index  \param T_rig_cam receives the camera-to-rig pose  \return false otherwise
-  bool sim_mounting(int i, Pose& T_rig_cam) const;
+  //! Simulator truth of camera i (TruthSource: true poses, the robot's flange pose, the
+  //! mounting): the sim backend's camera, or a replayed recording with ground truth; null for
+  //! real devices, the null backend and recordings without poses. Take it only when configured to.
+  //! \param i camera index
+  const TruthSource* truth(int i) const {
+    return i < 0 || i >= int(truths_.size()) ? nullptr : truths_[std::size_t(i)];
+  }
   //! Where the line scanner's axis carries it (sim: the simulated axis; replay: the line through
   //! the recording's first and last poses): the sensor pose at axis position 0 and the unit
   //! direction of travel, so a profile's pose is T_world_axis0 moved by axis * position.
@@ -76,10 +71,10 @@ class HalDevices {
   std::unique_ptr<Owned> owned_;
   SimScene scene_;
   std::vector<io::BoardCamera> configs_;
-  std::vector<DepthCamera*> cameras_;
-  std::vector<const SimDepthCamera*> sim_cameras_;        // per camera, null unless sim
-  std::vector<const ReplayDepthCamera*> replay_cameras_;  // per camera, null unless replay
-  std::vector<std::unique_ptr<FaultCamera>> faults_;
+  std::vector<DepthCamera*> cameras_;                 // the backends
+  std::vector<DepthCamera*> used_;                    // per camera: the backend or its FaultCamera
+  std::vector<const TruthSource*> truths_;            // per camera, null unless sim / replay with truth
+  std::vector<std::unique_ptr<FaultCamera>> faults_;  // empty unless faults are injected
   DeviceMonitor* monitor_ = nullptr;
   LineScanner* scanner_ = nullptr;
   bool has_scanner_axis_ = false;

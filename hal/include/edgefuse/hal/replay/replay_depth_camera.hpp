@@ -2,7 +2,8 @@
 // io::open_depth_sequence and ../shared/docs/FORMATS.md) as a DepthCamera: at the recorded rate
 // on the HAL clock or as fast as possible. Stamps keep the recording's spacing (start time + the
 // frame's offset in the recording), so paired replays of a rig's sensors pair as they were
-// recorded. Host-side: decoding the PNGs allocates inside libpng (the decode buffers are kept).
+// recorded. The recording's ground-truth poses are offered as simulator truth (TruthSource).
+// Host-side: decoding the PNGs allocates inside libpng (the decode buffers are kept).
 #pragma once
 
 #include <cstdint>
@@ -11,13 +12,14 @@
 
 #include "edgefuse/hal/clock.hpp"
 #include "edgefuse/hal/depth_camera.hpp"
+#include "edgefuse/hal/truth_source.hpp"
 #include "edgefuse/io/dataset.hpp"
 
 namespace edgefuse::hal {
 
 enum class ReplayRate : uint8_t { kRecorded, kFastest };
 
-class ReplayDepthCamera final : public DepthCamera {
+class ReplayDepthCamera final : public DepthCamera, public TruthSource {
  public:
   //! \param seq the opened sequence (kept by reference)  \param rate pacing  \param clock time base
   //! \param loop start again after the last frame (else kEndOfStream)
@@ -47,12 +49,25 @@ class ReplayDepthCamera final : public DepthCamera {
   //! the recording's frames, loops included, so a frame the caller holds still finds its truth when
   //! a device thread has delivered newer ones). \return false without truth
   //! \param sequence the frame's sequence number  \param T_world_cam receives the camera-to-world pose
-  bool pose_of(uint32_t sequence, Pose& T_world_cam) const {
+  bool pose_of(uint32_t sequence, Pose& T_world_cam) const override {
     if (seq_.frames.empty()) return false;
     const io::FrameRef& f = seq_.frames[sequence % seq_.frames.size()];
     if (!f.has_pose) return false;
     T_world_cam = f.T_world_cam;
     return true;
+  }
+  //! The robot's flange pose at frame `sequence`: a rig set's rig frame is its reference
+  //! sensor's, so the frame's ground truth (pose_of). \return false without truth
+  bool flange_pose_of(uint32_t sequence, Pose& T_world_flange) const override {
+    return pose_of(sequence, T_world_flange);
+  }
+  //! A recording knows no mounting (a rig set's extrinsics.txt is read from the set). \return false
+  bool mounting(Pose&) const override { return false; }
+  //! True when at least one frame of the recording has a ground-truth pose.
+  bool has_truth() const {
+    for (const io::FrameRef& f : seq_.frames)
+      if (f.has_pose) return true;
+    return false;
   }
   //! Index in the sequence of the frame delivered last.
   std::size_t last_index() const { return index_ == 0 ? 0 : index_ - 1; }

@@ -5,7 +5,8 @@
 //   - ToF (PMD-like): amplitude 20000 * refl * cos(incidence) * (0.5 m / r)^2 with 2% noise;
 //     flying pixels (a depth jump > 3 cm to a 4-neighbour: probability 0.5 of a blend of both
 //     depths); noise sigma_z = min(5 mm * z / sqrt(a_n), 2 cm); no return below a_n = 0.02.
-// The rig moves on a slow horizontal circle above the bin (sim_rig_pose) so tracking has work.
+// The rig moves on a slow horizontal circle above the bin (sim_rig_pose) so tracking has work;
+// the camera offers that motion and its mounting as simulator truth (TruthSource).
 // Frames come at the mode's rate on the HAL clock (or as fast as possible when unpaced).
 #pragma once
 
@@ -15,6 +16,7 @@
 #include "edgefuse/hal/depth_camera.hpp"
 #include "edgefuse/hal/sim/sim_random.hpp"
 #include "edgefuse/hal/sim/sim_scene.hpp"
+#include "edgefuse/hal/truth_source.hpp"
 
 namespace edgefuse::hal {
 
@@ -41,7 +43,7 @@ SimDepthCameraConfig sim_tof_config();
 //! \param t_s time since the stream started  \param radius_m circle radius  \param period_s circle period
 Pose sim_rig_pose(double t_s, float radius_m, float period_s);
 
-class SimDepthCamera final : public DepthCamera {
+class SimDepthCamera final : public DepthCamera, public TruthSource {
  public:
   static constexpr int kMaxWidth = 1280;  //!< widest mode (row buffers of the flying-pixel pass)
 
@@ -62,6 +64,23 @@ class SimDepthCamera final : public DepthCamera {
   //! True camera-to-world pose of frame `sequence` (for tests and ground truth).
   //! \param sequence frame number since start
   Pose pose_of(uint32_t sequence) const;
+
+  // TruthSource: the simulated rig's motion and this camera's mounting on it.
+  //! pose_of(sequence); always true.
+  bool pose_of(uint32_t sequence, Pose& T_world_cam) const override {
+    T_world_cam = pose_of(sequence);
+    return true;
+  }
+  //! The sim robot's flange (at the rig's origin): pose_of(sequence) * T_rig_cam^-1; always true.
+  bool flange_pose_of(uint32_t sequence, Pose& T_world_flange) const override {
+    T_world_flange = pose_of(sequence) * config_.T_rig_cam.inverse();
+    return true;
+  }
+  //! config().T_rig_cam; always true.
+  bool mounting(Pose& T_rig_cam) const override {
+    T_rig_cam = config_.T_rig_cam;
+    return true;
+  }
   //! Runs the rig's motion on the clock from `epoch_us` on, shared by every camera of the rig, so
   //! that frames of different cameras with the same stamp see the rig at the same pose. Without it
   //! (0, the default) the motion starts at this camera's own start(): cameras started at different
