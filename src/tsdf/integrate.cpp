@@ -366,6 +366,8 @@ inline Fixed tile_near(const DepthTile& t, const DepthScale<Fixed>& scale) { ret
 // fused (volume with colour), kExtras = a trust map or the colour-only pass, or a ray-norm map
 // whose row stride differs from the depth image's (else it is read at the depth pixel's index).
 // Same arithmetic in every instance, so the same voxels.
+// Kept whole (~180 lines) on purpose: it is one loop nest (brick, row, voxel) whose per-brick
+// state the compiler keeps in registers; splitting it into functions risks the measured speed.
 template <class Real, bool kColour, bool kExtras>
 void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, std::size_t begin, std::size_t end) {
   const uint32_t* list = volume.brick_list();

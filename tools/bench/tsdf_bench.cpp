@@ -105,159 +105,240 @@ const char* kUsage =
     "  --cast-threads N (2..8) also casts every pose R more times on N threads (rows shared as in\n"
     "  edgefuse track --threads N) and prints wall-clock and all-thread CPU time per raycast.\n";
 
-}  // namespace
 
-int main(int argc, char** argv) {
+// A refusal: the message, the exit code (2: the command line, 1: the data) and whether the usage
+// follows it.
+struct Failure {
+  std::string message;
+  int code = 1;
+  bool usage = false;
+};
+
+bool fail(Failure& f, const std::string& message, int code = 1) {
+  f.message = message;
+  f.code = code;
+  return false;
+}
+
+int report(const Failure& f) {
+  std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n%s", f.message.c_str(), f.usage ? kUsage : "");
+  return f.code;
+}
+
+// What the command line asks for.
+struct BenchOptions {
   Args args;
+  FuseSettings s;
+  int frames_max = 0, reps = 3, cast_level = 0, cast_threads = 1;
+  bool cast = true;  // not --no-raycast
+};
+
+bool parse_options(int argc, char** argv, BenchOptions& o, Failure& f) {
+  Args& args = o.args;
   std::string err;
   if (!args.parse(argc - 1, argv + 1, {"sensor", "frames", "voxel", "reps", "dump", "compare", "cast-level", "cast-threads"}, {"no-raycast", "no-colour-map", "truth"}, err) ||
       args.positional().size() != 1) {
-    std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n%s", err.empty() ? "expected one DATASET" : err.c_str(), kUsage);
-    return 2;
+    f.usage = true;
+    return fail(f, err.empty() ? "expected one DATASET" : err, 2);
   }
-  const BoardCapacities& board = build_board();
-  FuseSettings s;
-  int frames_max = 0, reps = 3, cast_level = 0, cast_threads = 1;
-  if (!board_fuse_settings(s, err) || !apply_fuse_options(args, s, frames_max, err) ||
-      (args.has("reps") && !args.get_int("reps", 0, 1000, reps, err)) ||
-      (args.has("cast-level") && !args.get_int("cast-level", 0, 3, cast_level, err)) ||
-      (args.has("cast-threads") && !args.get_int("cast-threads", 2, 8, cast_threads, err))) {
-    std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", err.c_str());
-    return 2;
-  }
-  s.threads = 1;
+  if (!board_fuse_settings(o.s, err) || !apply_fuse_options(args, o.s, o.frames_max, err) ||
+      (args.has("reps") && !args.get_int("reps", 0, 1000, o.reps, err)) ||
+      (args.has("cast-level") && !args.get_int("cast-level", 0, 3, o.cast_level, err)) ||
+      (args.has("cast-threads") && !args.get_int("cast-threads", 2, 8, o.cast_threads, err)))
+    return fail(f, err, 2);
+  o.s.threads = 1;
+  o.cast = !args.has("no-raycast");
+  return true;
+}
+
+// The sequence, the core and the raycasts' sensor and maps.
+struct Bench {
   io::DepthSequence seq;
-  if (!io::open_depth_sequence(args.positional()[0], args.get("sensor"), seq, err)) {
-    std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", err.c_str());
-    return 1;
-  }
-  const std::size_t n = std::min<std::size_t>(seq.frames.size(), std::size_t(frames_max));
+  std::size_t n = 0;  // frames fused
   CoreSetup core;
   std::vector<uint16_t> depth;
   std::vector<Rgb8> colour;
-  if (n == 0 || !core.init(board, seq.intr, err) || !io::load_depth(seq.frames[0], seq.intr, depth, err) ||
-      !centre_on_view(seq.intr, depth, seq.frames[0].T_world_cam, s, seq.frames[0].depth_path, err) ||
-      !core.make_volume(s, err)) {
-    std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", n == 0 ? "no frames" : err.c_str());
-    return 1;
-  }
+  PinholeIntrinsics cast_intr;  // the frames' own sensor, or a pyramid level's
+  RaycastMaps cast_maps;
+  std::size_t cast_pixels = 0;
+};
+
+bool set_up(BenchOptions& o, Bench& b, Failure& f) {
+  const Args& args = o.args;
+  std::string err;
+  io::DepthSequence& seq = b.seq;
+  if (!io::open_depth_sequence(args.positional()[0], args.get("sensor"), seq, err)) return fail(f, err);
+  b.n = std::min<std::size_t>(seq.frames.size(), std::size_t(o.frames_max));
+  CoreSetup& core = b.core;
+  if (b.n == 0 || !core.init(build_board(), seq.intr, err) || !io::load_depth(seq.frames[0], seq.intr, b.depth, err) ||
+      !centre_on_view(seq.intr, b.depth, seq.frames[0].T_world_cam, o.s, seq.frames[0].depth_path, err) ||
+      !core.make_volume(o.s, err))
+    return fail(f, b.n == 0 ? "no frames" : err);
+  if (args.has("no-colour-map")) core.maps.colour = ImageView<Rgba8>();  // as edgefuse track
+  if (o.cast_level > 0 && args.has("truth"))
+    return fail(f, "--truth compares full-resolution casts only (not with --cast-level)", 2);
+  // The raycasts' sensor and maps: the frames' own, or a pyramid level's (the same buffers).
+  b.cast_intr = o.cast_level > 0 ? level_intrinsics(seq.intr, o.cast_level) : seq.intr;
+  const int cw = b.cast_intr.width, ch = b.cast_intr.height;
+  b.cast_maps = core.buffers.raycast_maps(0, cw, ch, !core.maps.colour.empty());
+  b.cast_pixels = std::size_t(cw) * ch;
+  return true;
+}
+
+// Thread CPU time of the frames' integrations, and of a raycast after each.
+struct FuseTimes {
+  double integrate_ms = 0.0, raycast_fuse_ms = 0.0;
+};
+
+bool fuse_frames(const BenchOptions& o, Bench& b, FuseTimes& t, Failure& f) {
+  const io::DepthSequence& seq = b.seq;
+  CoreSetup& core = b.core;
   const bool use_colour = seq.colour_registered && core.volume.has_colour();
   const int W = seq.intr.width, H = seq.intr.height;
-  const std::size_t pixels = std::size_t(W) * H;
-  double integrate_ms = 0.0, raycast_fuse_ms = 0.0;
-  const bool cast = !args.has("no-raycast");
-  if (args.has("no-colour-map")) core.maps.colour = ImageView<Rgba8>();  // as edgefuse track
-  if (cast_level > 0 && args.has("truth")) {
-    std::fprintf(stderr, "edgefuse_tsdf_bench: --truth compares full-resolution casts only (not with --cast-level)\n");
-    return 2;
-  }
-  // The raycasts' sensor and maps: the frames' own, or a pyramid level's (the same buffers).
-  const PinholeIntrinsics cast_intr = cast_level > 0 ? level_intrinsics(seq.intr, cast_level) : seq.intr;
-  const int cw = cast_intr.width, ch = cast_intr.height;
-  const RaycastMaps cast_maps = core.buffers.raycast_maps(0, cw, ch, !core.maps.colour.empty());
-  const std::size_t cast_pixels = std::size_t(cw) * ch;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!io::load_depth(seq.frames[i], seq.intr, depth, err) ||
-        (use_colour && !io::load_colour(seq.frames[i], seq.intr, colour, err))) {
-      std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", err.c_str());
-      return 1;
-    }
-    const DepthFrame f = core.stage_frame(depth, use_colour ? &colour : nullptr);
+  std::string err;
+  for (std::size_t i = 0; i < b.n; ++i) {
+    if (!io::load_depth(seq.frames[i], seq.intr, b.depth, err) ||
+        (use_colour && !io::load_colour(seq.frames[i], seq.intr, b.colour, err)))
+      return fail(f, err);
+    const DepthFrame fr = core.stage_frame(b.depth, use_colour ? &b.colour : nullptr);
     double t0 = thread_cpu_ms();
-    integrate<real_t>(core.volume, seq.intr, ImageView<const real_t>(core.ray_norms.data, W, H), f,
+    integrate<real_t>(core.volume, seq.intr, ImageView<const real_t>(core.ray_norms.data, W, H), fr,
                       seq.frames[i].T_world_cam, core.scratch);
-    integrate_ms += thread_cpu_ms() - t0;
-    if (!cast) continue;
+    t.integrate_ms += thread_cpu_ms() - t0;
+    if (!o.cast) continue;
     t0 = thread_cpu_ms();
-    raycast<real_t>(core.volume, cast_intr, seq.frames[i].T_world_cam, cast_maps);
-    raycast_fuse_ms += thread_cpu_ms() - t0;
+    raycast<real_t>(core.volume, b.cast_intr, seq.frames[i].T_world_cam, b.cast_maps);
+    t.raycast_fuse_ms += thread_cpu_ms() - t0;
   }
-  // A checksum of every voxel (distance, weight, colour) and brick flag: equal checksums show that
-  // a faster integration stores exactly the same volume.
+  return true;
+}
+
+// A checksum of every voxel (distance, weight, colour) and brick flag: equal checksums show that
+// a faster integration stores exactly the same volume.
+uint64_t volume_checksum(const TsdfVolume& volume) {
   uint64_t checksum = 1469598103934665603ull;  // FNV-1a
   auto mix = [&checksum](const void* data, std::size_t bytes) {
     const unsigned char* b = static_cast<const unsigned char*>(data);
     for (std::size_t k = 0; k < bytes; ++k) checksum = (checksum ^ b[k]) * 1099511628211ull;
   };
-  const std::size_t voxels = core.volume.voxel_count();
-  mix(core.volume.tsdf(), voxels * sizeof(int16_t));
-  mix(core.volume.weight(), voxels);
-  if (core.volume.has_colour()) {
-    mix(core.volume.colour(), voxels * sizeof(Rgb8));
-    mix(core.volume.colour_weight(), voxels);
+  const std::size_t voxels = volume.voxel_count();
+  mix(volume.tsdf(), voxels * sizeof(int16_t));
+  mix(volume.weight(), voxels);
+  if (volume.has_colour()) {
+    mix(volume.colour(), voxels * sizeof(Rgb8));
+    mix(volume.colour_weight(), voxels);
   }
-  mix(core.volume.brick_flags(), core.volume.brick_count());
+  mix(volume.brick_flags(), volume.brick_count());
+  return checksum;
+}
+
+// The raycasts on the final volume: times, the maps of the first round, the truth comparison.
+struct CastStats {
   MapDump dump;
   double raycast_ms = 0.0, prepare_ms = 0.0;
   std::size_t truth_both = 0, truth_off_1cm = 0;
   std::size_t hits = 0;
   int casts = 0;
-  for (int r = 0; cast && r < reps; ++r)
-    for (std::size_t i = 0; i < n; ++i) {
+};
+
+// The final raycast at frame i's pose against that frame's own depth image.
+bool compare_with_truth(Bench& b, std::size_t i, CastStats& c, Failure& f) {
+  const io::DepthSequence& seq = b.seq;
+  std::string err;
+  if (!io::load_depth(seq.frames[i], seq.intr, b.depth, err)) return fail(f, err);
+  const std::size_t pixels = std::size_t(seq.intr.width) * seq.intr.height;
+  for (std::size_t k = 0; k < pixels; ++k) {
+    const float z = b.cast_maps.depth_m.data[k], m = float(b.depth[k]) / seq.intr.depth_scale;
+    if (!(z > 0.0f) || b.depth[k] == 0) continue;
+    ++c.truth_both;
+    c.truth_off_1cm += std::fabs(z - m) > 0.01f;
+  }
+  return true;
+}
+
+bool cast_final_volume(const BenchOptions& o, Bench& b, CastStats& c, Failure& f) {
+  const io::DepthSequence& seq = b.seq;
+  for (int r = 0; o.cast && r < o.reps; ++r)
+    for (std::size_t i = 0; i < b.n; ++i) {
       double t0 = thread_cpu_ms();
-      raycast<real_t>(core.volume, cast_intr, seq.frames[i].T_world_cam, cast_maps);
-      raycast_ms += thread_cpu_ms() - t0;
-      ++casts;
-      if (r == 0) dump.add(cast_maps, cast_pixels);
-      if (r == 0 && args.has("truth")) {
-        // The final raycast at a frame's pose against that frame's own depth image.
-        if (!io::load_depth(seq.frames[i], seq.intr, depth, err)) {
-          std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n", err.c_str());
-          return 1;
-        }
-        for (std::size_t k = 0; k < pixels; ++k) {
-          const float z = cast_maps.depth_m.data[k], m = float(depth[k]) / seq.intr.depth_scale;
-          if (!(z > 0.0f) || depth[k] == 0) continue;
-          ++truth_both;
-          truth_off_1cm += std::fabs(z - m) > 0.01f;
-        }
-      }
-      hits = 0;  // of the raycast (the prepare_raycast timed below leaves its bounds in the depth map)
-      for (std::size_t k = 0; k < cast_pixels; ++k) hits += cast_maps.depth_m.data[k] > 0.0f;
+      raycast<real_t>(b.core.volume, b.cast_intr, seq.frames[i].T_world_cam, b.cast_maps);
+      c.raycast_ms += thread_cpu_ms() - t0;
+      ++c.casts;
+      if (r == 0) c.dump.add(b.cast_maps, b.cast_pixels);
+      if (r == 0 && o.args.has("truth") && !compare_with_truth(b, i, c, f)) return false;
+      c.hits = 0;  // of the raycast (the prepare_raycast timed below leaves its bounds in the depth map)
+      for (std::size_t k = 0; k < b.cast_pixels; ++k) c.hits += b.cast_maps.depth_m.data[k] > 0.0f;
       t0 = thread_cpu_ms();
-      prepare_raycast(core.volume, cast_intr, seq.frames[i].T_world_cam, cast_maps);
-      prepare_ms += thread_cpu_ms() - t0;
+      prepare_raycast(b.core.volume, b.cast_intr, seq.frames[i].T_world_cam, b.cast_maps);
+      c.prepare_ms += thread_cpu_ms() - t0;
     }
-  std::printf("%s %dx%d, %d^3 x %.4g m (%s), %zu frames: integrate %.2f ms/frame thread CPU", seq.root.c_str(), W, H,
-              s.dim, double(s.voxel_m), std::is_same<real_t, float>::value ? "float" : "Q16.16", n, integrate_ms / n);
-  if (cast && cast_level > 0) std::printf(", raycasts %dx%d (pyramid level %d)", cw, ch, cast_level);
-  if (cast)
+  return true;
+}
+
+void print_summary(const BenchOptions& o, const Bench& b, const FuseTimes& t, const CastStats& c, uint64_t checksum) {
+  const std::size_t n = b.n;
+  std::printf("%s %dx%d, %d^3 x %.4g m (%s), %zu frames: integrate %.2f ms/frame thread CPU", b.seq.root.c_str(),
+              b.seq.intr.width, b.seq.intr.height, o.s.dim, double(o.s.voxel_m),
+              std::is_same<real_t, float>::value ? "float" : "Q16.16", n, t.integrate_ms / n);
+  if (o.cast && o.cast_level > 0)
+    std::printf(", raycasts %dx%d (pyramid level %d)", b.cast_intr.width, b.cast_intr.height, o.cast_level);
+  if (o.cast)
     std::printf(", raycast %.2f ms after each frame, %.2f ms on the final volume (%d casts; of which prepare %.2f ms), "
                 "hit %.1f%% (last)",
-                raycast_fuse_ms / n, raycast_ms / std::max(casts, 1), casts, prepare_ms / std::max(casts, 1),
-                100.0 * hits / cast_pixels);
+                t.raycast_fuse_ms / n, c.raycast_ms / std::max(c.casts, 1), c.casts, c.prepare_ms / std::max(c.casts, 1),
+                100.0 * c.hits / b.cast_pixels);
   std::printf("\nvolume checksum %016llx\n", static_cast<unsigned long long>(checksum));
-  if (cast && cast_threads > 1) {
-    // The same casts spread over a worker pool (started here, before the timed loop): wall clock
-    // per raycast, and the CPU time of all threads, which shows what the split costs.
-    PoolRunners threads;
-    threads.start(cast_threads);
-    double wall_ms = 0.0, cpu_ms = 0.0;
-    int parallel_casts = 0;
-    for (int r = 0; r < reps; ++r)
-      for (std::size_t i = 0; i < n; ++i) {
-        const double w0 = clock_ms(CLOCK_MONOTONIC), c0 = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
-        raycast_frame<real_t>(threads.runners().tsdf, core.volume, cast_intr, seq.frames[i].T_world_cam, cast_maps);
-        wall_ms += clock_ms(CLOCK_MONOTONIC) - w0;
-        cpu_ms += clock_ms(CLOCK_PROCESS_CPUTIME_ID) - c0;
-        ++parallel_casts;
-      }
-    threads.pool.stop();
-    std::printf("raycast on %d threads: %.2f ms wall, %.2f ms CPU of all threads per raycast (%d casts)\n", cast_threads,
-                wall_ms / std::max(parallel_casts, 1), cpu_ms / std::max(parallel_casts, 1), parallel_casts);
-  }
-  if (args.has("truth"))
-    std::printf("against the frames' depth: %zu pixels with both, %zu off by more than 1 cm\n", truth_both,
-                truth_off_1cm);
-  if (args.has("dump")) {
-    FILE* fp = std::fopen(args.get("dump").c_str(), "wb");
-    if (fp == nullptr || std::fwrite(dump.values.data(), sizeof(float), dump.values.size(), fp) != dump.values.size()) {
-      std::fprintf(stderr, "edgefuse_tsdf_bench: cannot write --dump file %s\n", args.get("dump").c_str());
-      if (fp != nullptr) std::fclose(fp);
-      return 1;
+}
+
+// The same casts spread over a worker pool (started here, before the timed loop): wall clock
+// per raycast, and the CPU time of all threads, which shows what the split costs.
+void cast_on_threads(const BenchOptions& o, Bench& b) {
+  PoolRunners threads;
+  threads.start(o.cast_threads);
+  double wall_ms = 0.0, cpu_ms = 0.0;
+  int parallel_casts = 0;
+  for (int r = 0; r < o.reps; ++r)
+    for (std::size_t i = 0; i < b.n; ++i) {
+      const double w0 = clock_ms(CLOCK_MONOTONIC), c0 = clock_ms(CLOCK_PROCESS_CPUTIME_ID);
+      raycast_frame<real_t>(threads.runners().tsdf, b.core.volume, b.cast_intr, b.seq.frames[i].T_world_cam,
+                            b.cast_maps);
+      wall_ms += clock_ms(CLOCK_MONOTONIC) - w0;
+      cpu_ms += clock_ms(CLOCK_PROCESS_CPUTIME_ID) - c0;
+      ++parallel_casts;
     }
-    std::fclose(fp);
+  threads.pool.stop();
+  std::printf("raycast on %d threads: %.2f ms wall, %.2f ms CPU of all threads per raycast (%d casts)\n",
+              o.cast_threads, wall_ms / std::max(parallel_casts, 1), cpu_ms / std::max(parallel_casts, 1),
+              parallel_casts);
+}
+
+bool write_dump(const std::string& path, const MapDump& dump, Failure& f) {
+  FILE* fp = std::fopen(path.c_str(), "wb");
+  if (fp == nullptr || std::fwrite(dump.values.data(), sizeof(float), dump.values.size(), fp) != dump.values.size()) {
+    if (fp != nullptr) std::fclose(fp);
+    return fail(f, "cannot write --dump file " + path);
   }
-  if (args.has("compare") && !compare_dumps(dump, args.get("compare"), cast_pixels, s.voxel_m)) return 1;
+  std::fclose(fp);
+  return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  BenchOptions o;
+  Failure f;
+  Bench b;
+  FuseTimes t;
+  CastStats c;
+  if (!parse_options(argc, argv, o, f) || !set_up(o, b, f) || !fuse_frames(o, b, t, f)) return report(f);
+  const uint64_t checksum = volume_checksum(b.core.volume);
+  if (!cast_final_volume(o, b, c, f)) return report(f);
+  print_summary(o, b, t, c, checksum);
+  if (o.cast && o.cast_threads > 1) cast_on_threads(o, b);
+  if (o.args.has("truth"))
+    std::printf("against the frames' depth: %zu pixels with both, %zu off by more than 1 cm\n", c.truth_both,
+                c.truth_off_1cm);
+  if (o.args.has("dump") && !write_dump(o.args.get("dump"), c.dump, f)) return report(f);
+  if (o.args.has("compare") && !compare_dumps(c.dump, o.args.get("compare"), b.cast_pixels, o.s.voxel_m)) return 1;
   return 0;
 }

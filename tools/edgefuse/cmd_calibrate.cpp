@@ -37,9 +37,92 @@ const char* kUsage =
     "  the maps is the mounting. Two spaces share the board's voxel storage: default volume 200^3\n"
     "  (256^3 board) of 0.512 m / 200.\n";
 
-int fail(const std::string& msg, int code = 1) {
-  std::fprintf(stderr, "edgefuse calibrate: %s\n", msg.c_str());
-  return code;
+// A refusal: the message, the exit code (2: the command line, 1: the data, 3: the data does not
+// determine the mounting) and whether the usage follows it.
+struct Failure {
+  std::string message;
+  int code = 1;
+  bool usage = false;
+};
+
+bool fail(Failure& f, const std::string& message, int code = 1) {
+  f.message = message;
+  f.code = code;
+  return false;
+}
+
+int report_failure(const Failure& f) {
+  std::fprintf(stderr, "edgefuse calibrate: %s\n%s", f.message.c_str(), f.usage ? kUsage : "");
+  return f.code;
+}
+
+// What the command line asks for.
+struct CalibrateOptions {
+  Args args;
+  std::string folder;
+  FuseSettings settings;
+  int frames = 0;  // 0: every frame of A (set once the sequence is open)
+  Pose guess;
+  std::string poses;  // tracked | truth
+};
+
+bool parse_options(int argc, char** argv, CalibrateOptions& o, Failure& f) {
+  Args& args = o.args;
+  std::string err;
+  f.usage = true;
+  if (!args.parse(argc, argv, {"from", "to", "frames", "guess", "out", "store", "voxel", "trunc", "volume", "poses", "mode"}, {}, err) ||
+      args.positional().size() != 1)
+    return fail(f, err.empty() ? "expected one RIGSET" : err, 2);
+  if (!args.has("from") || !args.has("to")) return fail(f, "--from and --to are required", 2);
+  f.usage = false;
+  const BoardCapacities& board = build_board();
+  hal::BoardDefaults defaults;
+  if (!hal::read_board_defaults(board.name, defaults, err)) return fail(f, err);
+  FuseSettings& settings = o.settings;
+  settings.voxel_m = defaults.voxel_m;
+  settings.trunc_m = defaults.trunc_m;
+  settings.max_weight = defaults.max_weight;
+  settings.dim = board.volume_dim;
+  if (!args.get_float("voxel", 1e-4f, 1.0f, settings.voxel_m, err) ||
+      !args.get_float("trunc", 1e-4f, 10.0f, settings.trunc_m, err) ||
+      !args.get_int("volume", 8, board.volume_dim, settings.dim, err) || !args.get_int("frames", 1, 100000, o.frames, err) ||
+      (args.has("guess") && !parse_guess(args.get("guess"), o.guess, err)))
+    return fail(f, err, 2);
+  if (!args.has("trunc") && args.has("voxel")) settings.trunc_m = 4.0f * settings.voxel_m;
+  if (settings.dim % kBrickSide != 0) return fail(f, "--volume must be a multiple of 8", 2);
+  o.poses = args.get("poses", "tracked");
+  if (o.poses != "tracked" && o.poses != "truth") return fail(f, "--poses must be tracked or truth, got '" + o.poses + "'", 2);
+  if (args.get("from") == args.get("to")) return fail(f, "--from and --to name the same sensor", 2);
+  o.folder = args.positional()[0];
+  return true;
+}
+
+// The rig set and its two pinhole sensors A (--from) and B (--to).
+struct SensorPair {
+  io::RigSet set;
+  PinholeSlot a, b;
+};
+
+bool open_pair(CalibrateOptions& o, SensorPair& p, Failure& f) {
+  const Args& args = o.args;
+  std::string err;
+  if (!io::open_rig_set(o.folder, p.set, err)) return fail(f, err);
+  for (const char* opt : {"from", "to"}) {
+    const io::RigSensor* s = p.set.rig.find_sensor(args.get(opt));
+    if (s == nullptr) return fail(f, o.folder + "/rig.toml has no sensor '" + args.get(opt) + "' (--" + opt + ")", 2);
+    if (s->kind != io::SensorKind::kPinhole)
+      return fail(f, "--" + std::string(opt) + " " + args.get(opt) + ": only pinhole sensors can be calibrated as a pair", 2);
+  }
+  if (!io::open_depth_sequence(o.folder, args.get("from"), p.a.seq, err) ||
+      !io::open_depth_sequence(o.folder, args.get("to"), p.b.seq, err))
+    return fail(f, err);
+  if (p.a.seq.frames.empty() || p.b.seq.frames.empty()) return fail(f, "a sensor has no frames");
+  // All the data by default: the mounting's scatter falls with the frames averaged (bin_rig_a:
+  // 1.26 mm / 0.17 deg from 10 frames, 0.33 mm / 0.06 deg from all 20).
+  if (o.frames == 0) o.frames = int(p.a.seq.frames.size());
+  const BoardCapacities& board = build_board();
+  if (board.sensors_max < 3) return fail(f, "board " + std::string(board.name) + " has fewer than 3 sensor slots");
+  return true;
 }
 
 void report(const io::RigSet& set, const std::string& folder, const std::string& a, const std::string& b, const Pose& T) {
@@ -58,34 +141,37 @@ bool append_line(const std::string& path, const std::string& a, const std::strin
 }
 
 // --store: the on-board calibration store (both modes).
-bool store_result(const Args& args, const std::string& a, const std::string& b, const Pose& T) {
+bool store_result(const Args& args, const std::string& a, const std::string& b, const Pose& T, Failure& f) {
   if (!args.has("store")) return true;
   std::string msg, err;
-  if (!store_calibrated_pair(args.get("store"), a, b, T, msg, err)) {
-    std::fprintf(stderr, "edgefuse calibrate: %s\n", err.c_str());
-    return false;
-  }
+  if (!store_calibrated_pair(args.get("store"), a, b, T, msg, err)) return fail(f, err);
   std::printf("%s\n", msg.c_str());
   return true;
 }
 
 // --mode maps: two spaces carved from the board's one voxel storage, each filled by one sensor in
 // its own frame (its first pose), then aligned.
-int calibrate_maps(const Args& args, const BoardCapacities& board, FuseSettings settings, const io::RigSet& set,
-                   PinholeSlot& a, PinholeSlot& b, int frames, const Pose& guess) {
+bool calibrate_maps(const CalibrateOptions& o, SensorPair& p, Failure& f) {
+  const Args& args = o.args;
+  const BoardCapacities& board = build_board();
+  FuseSettings settings = o.settings;
+  PinholeSlot& a = p.a;
+  PinholeSlot& b = p.b;
+  const int frames = o.frames;
+  const Pose& guess = o.guess;
   std::string err;
   const uint64_t cap3 = uint64_t(board.volume_dim) * board.volume_dim * board.volume_dim;
   int dim = board.volume_dim;
   while (dim > 8 && 2 * uint64_t(dim) * dim * dim > cap3) dim -= 8;
   if (args.has("volume")) dim = settings.dim;
   if (2 * uint64_t(dim) * dim * dim > cap3)
-    return fail("--volume " + std::to_string(dim) + ": two such spaces do not fit the board's voxel storage", 2);
+    return fail(f, "--volume " + std::to_string(dim) + ": two such spaces do not fit the board's voxel storage", 2);
   if (!args.has("voxel")) settings.voxel_m = settings.voxel_m * float(board.volume_dim) / float(dim);
   if (!args.has("trunc")) settings.trunc_m = 4.0f * settings.voxel_m;
   settings.dim = dim;
   CoreSetup core;
-  if (!core.init(board, a.seq.intr, err)) return fail(err);
-  if (!a.bind(core.buffers, board, 0, err) || !b.bind(core.buffers, board, 1, err)) return fail(err);
+  if (!core.init(board, a.seq.intr, err)) return fail(f, err);
+  if (!a.bind(core.buffers, board, 0, err) || !b.bind(core.buffers, board, 1, err)) return fail(f, err);
   a.filters.bilateral_enabled = false;
   b.filters.bilateral_enabled = false;
   const ImageView<uint16_t> spare(core.buffers.depth_frames + 2 * core.buffers.pixels_per_sensor,
@@ -104,21 +190,21 @@ int calibrate_maps(const Args& args, const BoardCapacities& board, FuseSettings 
   PinholeSlot* cam[2] = {&a, &b};
   for (int k = 0; k < 2; ++k) {
     PinholeSlot& c = *cam[k];
-    if (!c.seq.frames[0].has_pose) return fail(c.seq.root + ": frames need poses (groundtruth.txt)");
+    if (!c.seq.frames[0].has_pose) return fail(f, c.seq.root + ": frames need poses (groundtruth.txt)");
     const Pose T0_inv = c.seq.frames[0].T_world_cam.inverse();
-    if (!io::load_depth(c.seq.frames[0], c.seq.intr, c.load_depth, err)) return fail(err);
+    if (!io::load_depth(c.seq.frames[0], c.seq.intr, c.load_depth, err)) return fail(f, err);
     if (!centre_on_view(c.seq.intr, c.load_depth, Pose::identity(), settings, c.seq.frames[0].depth_path, err))
-      return fail(err);
-    TsdfParams p = TsdfParams::defaults_for(settings.voxel_m, settings.trunc_m);
-    if (space[k].init(k == 0 ? sa : sb, dim, settings.origin_m, p) != Status::kOk) return fail("space init failed");
+      return fail(f, err);
+    TsdfParams tp = TsdfParams::defaults_for(settings.voxel_m, settings.trunc_m);
+    if (space[k].init(k == 0 ? sa : sb, dim, settings.origin_m, tp) != Status::kOk) return fail(f, "space init failed");
     const std::size_t n = std::min<std::size_t>(std::size_t(frames), c.seq.frames.size());
     for (std::size_t i = 0; i < n; ++i) {
       if (!c.seq.frames[i].has_pose) continue;
-      DepthFrame f;
-      if (!c.stage(i, true, false, 0.0f, spare, f, err)) return fail(err);
-      if (integrate<real_t>(space[k], c.seq.intr, c.ray_norms, f, T0_inv * c.seq.frames[i].T_world_cam, c.scratch) !=
+      DepthFrame frame;
+      if (!c.stage(i, true, false, 0.0f, spare, frame, err)) return fail(f, err);
+      if (integrate<real_t>(space[k], c.seq.intr, c.ray_norms, frame, T0_inv * c.seq.frames[i].T_world_cam, c.scratch) !=
           Status::kOk)
-        return fail(c.seq.frames[i].depth_path + ": integration failed");
+        return fail(f, c.seq.frames[i].depth_path + ": integration failed");
     }
   }
   std::printf("edgefuse calibrate --mode maps: A = %s, B = %s, each mapped alone (%d frames, poses relative to its "
@@ -128,120 +214,89 @@ int calibrate_maps(const Args& args, const BoardCapacities& board, FuseSettings 
   const PinholeIntrinsics& vi = a.seq.intr;
   const RaycastMaps om = core.buffers.raycast_maps(1, vi.width, vi.height, false);
   FramePyramid<real_t> pyramid;
-  if (core.buffers.pyramid<real_t>(1, vi, pyramid) != Status::kOk) return fail("pyramid does not fit");
+  if (core.buffers.pyramid<real_t>(1, vi, pyramid) != Status::kOk) return fail(f, "pyramid does not fit");
   PairCalibrationResult r;
   if (align_spaces<real_t>(space[0], space[1], vi, Pose::identity(), guess, pyramid, a.maps, om,
                            ImageView<uint16_t>(spare.data, vi.width, vi.height), core.buffers.icp_workspace<real_t>(1),
                            PairCalibrationParams(), 3, r) != Status::kOk)
-    return fail("alignment failed");
-  if (!r.accepted) return fail(std::string("refused: ") + r.reason, 3);
+    return fail(f, "alignment failed");
+  if (!r.accepted) return fail(f, std::string("refused: ") + r.reason, 3);
   const float deg = 180.0f / 3.14159265f;
   std::printf("T_%s_%s = %s   (map of %s in map of %s; rms %.2f mm, inliers %.2f, %d correspondences)\n",
               a.seq.sensor_name.c_str(), b.seq.sensor_name.c_str(), pose_line(r.T_a_b).c_str(),
               b.seq.sensor_name.c_str(), a.seq.sensor_name.c_str(), 1e3f * r.rms_m, r.inlier_ratio, r.correspondences);
   std::printf("uncertainty (1 sigma): covariance rot %.4f %.4f %.4f deg, trans %.3f %.3f %.3f mm\n", deg * r.sigma(0),
               deg * r.sigma(1), deg * r.sigma(2), 1e3f * r.sigma(3), 1e3f * r.sigma(4), 1e3f * r.sigma(5));
-  report(set, args.positional()[0], a.seq.sensor_name, b.seq.sensor_name, r.T_a_b);
+  report(p.set, args.positional()[0], a.seq.sensor_name, b.seq.sensor_name, r.T_a_b);
   if (args.has("out") && !append_line(args.get("out"), a.seq.sensor_name, b.seq.sensor_name, r.T_a_b))
-    return fail("cannot write " + args.get("out"));
-  if (!store_result(args, a.seq.sensor_name, b.seq.sensor_name, r.T_a_b)) return 1;
-  return 0;
+    return fail(f, "cannot write " + args.get("out"));
+  return store_result(args, a.seq.sensor_name, b.seq.sensor_name, r.T_a_b, f);
 }
 
-}  // namespace
-
-int cmd_calibrate(int argc, char** argv) {
-  Args args;
-  std::string err;
-  if (!args.parse(argc, argv, {"from", "to", "frames", "guess", "out", "store", "voxel", "trunc", "volume", "poses", "mode"}, {}, err) ||
-      args.positional().size() != 1) {
-    std::fprintf(stderr, "edgefuse calibrate: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
-    return 2;
-  }
-  if (!args.has("from") || !args.has("to")) {
-    std::fprintf(stderr, "edgefuse calibrate: --from and --to are required\n%s", kUsage);
-    return 2;
-  }
-  const BoardCapacities& board = build_board();
-  hal::BoardDefaults defaults;
-  if (!hal::read_board_defaults(board.name, defaults, err)) return fail(err);
-  FuseSettings settings;
-  settings.voxel_m = defaults.voxel_m;
-  settings.trunc_m = defaults.trunc_m;
-  settings.max_weight = defaults.max_weight;
-  settings.dim = board.volume_dim;
-  int frames = 0;  // 0: every frame of A (set once the sequence is open)
-  Pose guess;
-  if (!args.get_float("voxel", 1e-4f, 1.0f, settings.voxel_m, err) ||
-      !args.get_float("trunc", 1e-4f, 10.0f, settings.trunc_m, err) ||
-      !args.get_int("volume", 8, board.volume_dim, settings.dim, err) || !args.get_int("frames", 1, 100000, frames, err) ||
-      (args.has("guess") && !parse_guess(args.get("guess"), guess, err)))
-    return fail(err, 2);
-  if (!args.has("trunc") && args.has("voxel")) settings.trunc_m = 4.0f * settings.voxel_m;
-  if (settings.dim % kBrickSide != 0) return fail("--volume must be a multiple of 8", 2);
-  const std::string poses = args.get("poses", "tracked");
-  if (poses != "tracked" && poses != "truth") return fail("--poses must be tracked or truth, got '" + poses + "'", 2);
-  if (args.get("from") == args.get("to")) return fail("--from and --to name the same sensor", 2);
-
-  const std::string folder = args.positional()[0];
-  io::RigSet set;
-  if (!io::open_rig_set(folder, set, err)) return fail(err);
-  for (const char* opt : {"from", "to"}) {
-    const io::RigSensor* s = set.rig.find_sensor(args.get(opt));
-    if (s == nullptr) return fail(folder + "/rig.toml has no sensor '" + args.get(opt) + "' (--" + opt + ")", 2);
-    if (s->kind != io::SensorKind::kPinhole)
-      return fail("--" + std::string(opt) + " " + args.get(opt) + ": only pinhole sensors can be calibrated as a pair", 2);
-  }
-  PinholeSlot a, b;
-  if (!io::open_depth_sequence(folder, args.get("from"), a.seq, err) ||
-      !io::open_depth_sequence(folder, args.get("to"), b.seq, err))
-    return fail(err);
-  if (a.seq.frames.empty() || b.seq.frames.empty()) return fail("a sensor has no frames");
-  // All the data by default: the mounting's scatter falls with the frames averaged (bin_rig_a:
-  // 1.26 mm / 0.17 deg from 10 frames, 0.33 mm / 0.06 deg from all 20).
-  if (frames == 0) frames = int(a.seq.frames.size());
-  if (board.sensors_max < 3) return fail("board " + std::string(board.name) + " has fewer than 3 sensor slots");
-
-  const std::string mode = args.get("mode", "pair");
-  if (mode != "pair" && mode != "maps") return fail("--mode must be pair or maps, got '" + mode + "'", 2);
-  if (mode == "maps") return calibrate_maps(args, board, settings, set, a, b, frames, guess);
-
+// --mode pair: the core's buffers (A in slot 0, B in slot 1, the filters' scratch in slot 2), the
+// space centred on what A's first frame sees.
+struct PairCore {
   CoreSetup core;
-  if (!core.init(board, a.seq.intr, err)) return fail(err);
-  if (!a.bind(core.buffers, board, 0, err) || !b.bind(core.buffers, board, 1, err)) return fail(err);
-  const ImageView<uint16_t> filter_scratch(core.buffers.depth_frames + 2 * core.buffers.pixels_per_sensor,
-                                           board.image_width_max, board.image_height_max);
-  FramePyramid<real_t> pyramid;
-  if (core.buffers.pyramid<real_t>(1, b.seq.intr, pyramid) != Status::kOk) return fail("B's pyramid does not fit");
-  const IcpWorkspace<real_t> ws = core.buffers.icp_workspace<real_t>(1);
-  if (!io::load_depth(a.seq.frames[0], a.seq.intr, a.load_depth, err)) return fail(err);
-  if (!a.seq.frames[0].has_pose) return fail(a.seq.root + ": A's frames need poses (groundtruth.txt)");
-  if (!centre_on_view(a.seq.intr, a.load_depth, a.seq.frames[0].T_world_cam, settings, a.seq.frames[0].depth_path, err))
-    return fail(err);
-  if (!core.make_volume(settings, err)) return fail(err);
+  ImageView<uint16_t> filter_scratch;
+  FramePyramid<real_t> pyramid;  // B's
+};
 
+bool set_up_core(CalibrateOptions& o, SensorPair& p, PairCore& pc, Failure& f) {
+  const BoardCapacities& board = build_board();
+  PinholeSlot& a = p.a;
+  PinholeSlot& b = p.b;
+  CoreSetup& core = pc.core;
+  std::string err;
+  if (!core.init(board, a.seq.intr, err)) return fail(f, err);
+  if (!a.bind(core.buffers, board, 0, err) || !b.bind(core.buffers, board, 1, err)) return fail(f, err);
+  pc.filter_scratch = ImageView<uint16_t>(core.buffers.depth_frames + 2 * core.buffers.pixels_per_sensor,
+                                          board.image_width_max, board.image_height_max);
+  if (core.buffers.pyramid<real_t>(1, b.seq.intr, pc.pyramid) != Status::kOk) return fail(f, "B's pyramid does not fit");
+  if (!io::load_depth(a.seq.frames[0], a.seq.intr, a.load_depth, err)) return fail(f, err);
+  if (!a.seq.frames[0].has_pose) return fail(f, a.seq.root + ": A's frames need poses (groundtruth.txt)");
+  if (!centre_on_view(a.seq.intr, a.load_depth, a.seq.frames[0].T_world_cam, o.settings, a.seq.frames[0].depth_path,
+                      err))
+    return fail(f, err);
+  if (!core.make_volume(o.settings, err)) return fail(f, err);
+  return true;
+}
+
+// A fills the space (tracked or at its ground truth), B's frames at the same instants are registered to it.
+bool calibrate_pair_frames(const CalibrateOptions& o, SensorPair& p, PairCore& pc, PairCalibrationRun& run,
+                           Failure& f) {
+  PinholeSlot& a = p.a;
+  PinholeSlot& b = p.b;
+  CoreSetup& core = pc.core;
+  std::string err;
   std::printf("edgefuse calibrate: %s, A = %s (%dx%d), B = %s (%dx%d), %d frames, voxel %.4f m, guess %s\n",
-              folder.c_str(), a.seq.sensor_name.c_str(), a.seq.intr.width, a.seq.intr.height,
-              b.seq.sensor_name.c_str(), b.seq.intr.width, b.seq.intr.height, frames, settings.voxel_m,
-              pose_line(guess).c_str());
+              o.folder.c_str(), a.seq.sensor_name.c_str(), a.seq.intr.width, a.seq.intr.height,
+              b.seq.sensor_name.c_str(), b.seq.intr.width, b.seq.intr.height, o.frames, o.settings.voxel_m,
+              pose_line(o.guess).c_str());
   PairCalibrationParams params;
-  PairCalibrationRun run;
   FramePyramid<real_t> pyramid_a;
-  if (core.buffers.pyramid<real_t>(0, a.seq.intr, pyramid_a) != Status::kOk) return fail("A's pyramid does not fit");
+  if (core.buffers.pyramid<real_t>(0, a.seq.intr, pyramid_a) != Status::kOk) return fail(f, "A's pyramid does not fit");
   TrackingBuffers track{&pyramid_a, core.buffers.icp_workspace<real_t>(0)};
-  if (!run_pair_calibration(a, b, core.volume, pyramid, ws, filter_scratch, frames, guess, params, run, err, true,
-                            poses == "tracked" ? &track : nullptr))
-    return fail(err);
-  if (poses == "tracked")
+  const bool tracked = o.poses == "tracked";
+  if (!run_pair_calibration(a, b, core.volume, pc.pyramid, core.buffers.icp_workspace<real_t>(1), pc.filter_scratch,
+                            o.frames, o.guess, params, run, err, true, tracked ? &track : nullptr))
+    return fail(f, err);
+  if (tracked)
     std::printf("A tracked: %d of %d frames ok, largest distance from its ground truth %.2f mm\n", run.a_tracked_ok,
-                std::min(frames, int(a.seq.frames.size())), run.a_pose_error_mm);
+                std::min(o.frames, int(a.seq.frames.size())), run.a_pose_error_mm);
   if (run.accepted == 0)
-    return fail("refused: " + (run.first_reason.empty() ? std::string("no frame of B at A's instants") : run.first_reason),
+    return fail(f, "refused: " + (run.first_reason.empty() ? std::string("no frame of B at A's instants") : run.first_reason),
                 3);
+  return true;
+}
+
+// The mounting with its uncertainty, against the set's extrinsics.txt when it has the pair; --out, --store.
+bool write_result(const CalibrateOptions& o, const SensorPair& p, const PairCalibrationRun& run, Failure& f) {
+  const std::string& a = p.a.seq.sensor_name;
+  const std::string& b = p.b.seq.sensor_name;
   const Pose& T = run.T_a_b;
   const float deg = 180.0f / 3.14159265f;
-  std::printf("T_%s_%s = %s   (tx ty tz qx qy qz qw; %d of %zu frames accepted)\n", a.seq.sensor_name.c_str(),
-              b.seq.sensor_name.c_str(), pose_line(T).c_str(), run.accepted, run.frames.size());
+  std::printf("T_%s_%s = %s   (tx ty tz qx qy qz qw; %d of %zu frames accepted)\n", a.c_str(), b.c_str(),
+              pose_line(T).c_str(), run.accepted, run.frames.size());
   std::printf("uncertainty (1 sigma, B frame): covariance rot %.4f %.4f %.4f deg, trans %.3f %.3f %.3f mm",
               deg * run.sigma(0), deg * run.sigma(1), deg * run.sigma(2), 1e3f * run.sigma(3), 1e3f * run.sigma(4),
               1e3f * run.sigma(5));
@@ -250,20 +305,28 @@ int cmd_calibrate(int argc, char** argv) {
                 deg * run.spread(1), deg * run.spread(2), 1e3f * run.spread(3), 1e3f * run.spread(4),
                 1e3f * run.spread(5));
   std::printf("\n");
-  // Against the set's extrinsics.txt when it has the pair.
-  for (const io::SensorExtrinsic& e : set.extrinsics)
-    if (e.sensor_a == a.seq.sensor_name && e.sensor_b == b.seq.sensor_name) {
-      const Pose D = e.T_a_b.inverse() * T;
-      std::printf("against %s/extrinsics.txt: %.3f mm, %.4f deg\n", folder.c_str(), 1e3f * (T.t - e.T_a_b.t).norm(),
-                  deg * D.angle_rad());
-    }
-  if (args.has("out")) {
-    std::ofstream out(args.get("out"), std::ios::app);
-    out << a.seq.sensor_name << " " << b.seq.sensor_name << " " << pose_line(T) << "\n";
-    if (!out) return fail("cannot write " + args.get("out"));
-    std::printf("written to %s\n", args.get("out").c_str());
+  report(p.set, o.folder, a, b, T);
+  if (o.args.has("out")) {
+    if (!append_line(o.args.get("out"), a, b, T)) return fail(f, "cannot write " + o.args.get("out"));
+    std::printf("written to %s\n", o.args.get("out").c_str());
   }
-  if (!store_result(args, a.seq.sensor_name, b.seq.sensor_name, T)) return 1;
+  return store_result(o.args, a, b, T, f);
+}
+
+}  // namespace
+
+int cmd_calibrate(int argc, char** argv) {
+  CalibrateOptions o;
+  Failure f;
+  SensorPair p;
+  if (!parse_options(argc, argv, o, f) || !open_pair(o, p, f)) return report_failure(f);
+  const std::string mode = o.args.get("mode", "pair");
+  if (mode != "pair" && mode != "maps") return report_failure(Failure{"--mode must be pair or maps, got '" + mode + "'", 2});
+  if (mode == "maps") return calibrate_maps(o, p, f) ? 0 : report_failure(f);
+  PairCore pc;
+  PairCalibrationRun run;
+  if (!set_up_core(o, p, pc, f) || !calibrate_pair_frames(o, p, pc, run, f) || !write_result(o, p, run, f))
+    return report_failure(f);
   return 0;
 }
 

@@ -53,58 +53,99 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-int fail(const std::string& msg, int code = 1) {
-  std::fprintf(stderr, "edgefuse fuse: %s\n", msg.c_str());
-  return code;
+// A refusal: the message, the exit code (2: the command line, 1: the data, 3: a refused
+// calibration) and whether the usage follows it.
+struct Failure {
+  std::string message;
+  int code = 1;
+  bool usage = false;
+};
+
+bool fail(Failure& f, const std::string& message, int code = 1) {
+  f.message = message;
+  f.code = code;
+  return false;
 }
 
-}  // namespace
+int report(const Failure& f) {
+  std::fprintf(stderr, "edgefuse fuse: %s\n%s", f.message.c_str(), f.usage ? kUsage : "");
+  return f.code;
+}
 
-int cmd_fuse_rig(int argc, char** argv) {
+// What the command line asks for (--max-sigma is read once the sensors are bound, see apply_noise_rules).
+struct FuseRigOptions {
   Args args;
+  std::string folder;
+  FuseSettings settings;
+  int frames_max = 0;
+  Pose guess;
+  bool use_trust = true, paint = true, filter = true;
+  float sigma_ref = 0.0f;  // the trust reference
+  int min_weight = 0;
+  LaserPushOptions laser;
+};
+
+bool parse_options(int argc, char** argv, FuseRigOptions& o, Failure& f) {
+  Args& args = o.args;
   std::string err;
   if (!args.parse(argc, argv,
                   {"sensors", "extrinsics", "frames", "voxel", "trunc", "volume", "origin", "out", "mesh", "threads",
                    "guess", "min-weight", "max-sigma"},
                   {"no-trust", "no-paint", "no-filter", "register-laser"}, err) ||
       args.positional().size() != 1) {
-    std::fprintf(stderr, "edgefuse fuse: %s\n%s", err.empty() ? "expected one RIGSET" : err.c_str(), kUsage);
-    return 2;
+    f.usage = true;
+    return fail(f, err.empty() ? "expected one RIGSET" : err, 2);
   }
-  const BoardCapacities& board = build_board();
-  FuseSettings settings;
-  if (!board_fuse_settings(settings, err)) return fail(err);
-  int frames_max = 0;
-  Pose guess;
-  if (!apply_fuse_options(args, settings, frames_max, err) ||
-      (args.has("guess") && !parse_guess(args.get("guess"), guess, err)))
-    return fail(err, 2);
-  const bool use_trust = !args.has("no-trust"), paint = !args.has("no-paint"), filter = !args.has("no-filter");
+  if (!board_fuse_settings(o.settings, err)) return fail(f, err);
+  if (!apply_fuse_options(args, o.settings, o.frames_max, err) ||
+      (args.has("guess") && !parse_guess(args.get("guess"), o.guess, err)))
+    return fail(f, err, 2);
+  o.use_trust = !args.has("no-trust");
+  o.paint = !args.has("no-paint");
+  o.filter = !args.has("no-filter");
   // Trust reference: a sample with half a voxel of noise weighs one full sample.
-  const float sigma_ref = use_trust ? 0.5f * settings.voxel_m : 0.0f;
-  int min_weight = 0;
-  if (!args.get_int("min-weight", 0, 255, min_weight, err)) return fail(err, 2);
-  LaserPushOptions laser;
-  laser.register_patches = args.has("register-laser");
-  laser.verbose = true;
+  o.sigma_ref = o.use_trust ? 0.5f * o.settings.voxel_m : 0.0f;
+  if (!args.get_int("min-weight", 0, 255, o.min_weight, err)) return fail(f, err, 2);
+  o.laser.register_patches = args.has("register-laser");
+  o.laser.verbose = true;
+  o.folder = args.positional()[0];
+  return true;
+}
 
-  const std::string folder = args.positional()[0];
+// The core and the sensors bound to it.
+struct RigCore {
   io::RigSet set;
-  if (!io::open_rig_set(folder, set, err)) return fail(err);
   RigSensors rs;
-  bool usage = false;
-  if (!open_rig_sensors(folder, set, split_names(args.get("sensors")), board, rs, err, usage))
-    return fail(err, usage ? 2 : 1);
-  std::vector<PinholeSlot>& cams = rs.cams;
-  const int ref = rs.ref;
-
   CoreSetup core;
+  ImageView<uint16_t> filter_scratch;
+  std::vector<Pose> mount;    // mounting of each camera on the reference (where mounted)
+  std::vector<char> mounted;  // 1: placed by mount[i] times the reference's pose
+  int sub_unit_fill = kWeightUnitsPerSample;
+};
+
+bool open_sensors(const FuseRigOptions& o, RigCore& rc, Failure& f) {
+  std::string err;
+  if (!io::open_rig_set(o.folder, rc.set, err)) return fail(f, err);
+  bool usage = false;
+  if (!open_rig_sensors(o.folder, rc.set, split_names(o.args.get("sensors")), build_board(), rc.rs, err, usage))
+    return fail(f, err, usage ? 2 : 1);
+  return true;
+}
+
+bool bind_sensors(RigCore& rc, Failure& f) {
+  const BoardCapacities& board = build_board();
+  std::string err;
   PinholeIntrinsics init_intr;
   init_intr.width = init_intr.height = 8;
   init_intr.fx = init_intr.fy = 8;
-  if (!core.init(board, ref >= 0 ? cams[std::size_t(ref)].seq.intr : init_intr, err)) return fail(err);
-  ImageView<uint16_t> filter_scratch;
-  if (!bind_rig_sensors(rs, core, board, filter_scratch, err)) return fail(err);
+  const int ref = rc.rs.ref;
+  if (!rc.core.init(board, ref >= 0 ? rc.rs.cams[std::size_t(ref)].seq.intr : init_intr, err)) return fail(f, err);
+  if (!bind_rig_sensors(rc.rs, rc.core, board, rc.filter_scratch, err)) return fail(f, err);
+  return true;
+}
+
+bool apply_noise_rules(const FuseRigOptions& o, RigCore& rc, Failure& f) {
+  std::vector<PinholeSlot>& cams = rc.rs.cams;
   // ToF frames are not bilateral-smoothed before fusion: with the ToF's noise (6.7 mm median) its
   // range sigma mixes the floor with the tops of the objects on it, which lifts the fused floor by
   // 1.85 mm on bin_rig_a; the TSDF's own average denoises in 3-D without crossing edges.
@@ -115,9 +156,10 @@ int cmd_fuse_rig(int argc, char** argv) {
   // average and the noise leaves zero crossings in the band) - but on bin_rig_a at 2 mm voxels it
   // drops every ToF pixel, so by default every sensor's data is fused (where only the ToF sees,
   // its accuracy is what there is) and the gate is the user's choice.
+  std::string err;
   float max_sigma = 0.0f;
-  if (!args.get_float("max-sigma", 0.0f, 1.0f, max_sigma, err)) return fail(err, 2);
-  if (use_trust)
+  if (!o.args.get_float("max-sigma", 0.0f, 1.0f, max_sigma, err)) return fail(f, err, 2);
+  if (o.use_trust)
     for (PinholeSlot& c : cams) c.sigma_max_m = max_sigma;
   // The noise rules (fusion_rules.hpp, shared with edgefused), all of which need the noise models
   // (with --no-trust every sample is a full one):
@@ -130,132 +172,194 @@ int cmd_fuse_rig(int argc, char** argv) {
   //   up to 3 units (decided before the push from each camera's first frame), so surface only the
   //   ToF saw never passes the support rule; the support rule then follows the set (after the
   //   push, from each camera's median noise).
-  for (PinholeSlot& c : cams) c.jump_sigmas = use_trust ? kJumpSigmas : 0.0f;
-  int sub_unit_fill = kWeightUnitsPerSample;
+  for (PinholeSlot& c : cams) c.jump_sigmas = o.use_trust ? kJumpSigmas : 0.0f;
+  return true;
+}
 
-  // Volume placement.
-  if (!settings.origin_given && !place_rig_volume(rs, settings, err)) return fail(err);
-  if (!core.make_volume(settings, err)) return fail(err);
-  const Vec3f& o = core.volume.origin_m();
+// Volume placement.
+bool place_volume(FuseRigOptions& o, RigCore& rc, Failure& f) {
+  std::string err;
+  FuseSettings& settings = o.settings;
+  if (!settings.origin_given && !place_rig_volume(rc.rs, settings, err)) return fail(f, err);
+  if (!rc.core.make_volume(settings, err)) return fail(f, err);
+  const Vec3f& org = rc.core.volume.origin_m();
   std::printf("edgefuse fuse: %s, sensors %s, volume %d^3 x %.4f m at %.4f,%.4f,%.4f, trunc %.4f m, trust %s, %s "
               "kernels\n",
-              folder.c_str(), args.get("sensors").c_str(), settings.dim, settings.voxel_m, o.x(), o.y(), o.z(),
-              settings.trunc_m, use_trust ? "noise models" : "off", kFixedPointBuild ? "fixed-point" : "float");
+              o.folder.c_str(), o.args.get("sensors").c_str(), settings.dim, settings.voxel_m, org.x(), org.y(),
+              org.z(), settings.trunc_m, o.use_trust ? "noise models" : "off",
+              kFixedPointBuild ? "fixed-point" : "float");
+  return true;
+}
 
-  // Mountings of the non-reference cameras.
-  const std::string extr = args.get("extrinsics", "true");
-  std::vector<Pose> mount(cams.size());
-  std::vector<char> mounted(cams.size(), 0);
-  if (extr != "true") {
-    if (ref < 0) return fail("--extrinsics " + extr + " needs a pinhole reference camera", 2);
-    const PinholeSlot& r = cams[std::size_t(ref)];
-    std::vector<io::SensorExtrinsic> file;
-    if (extr != "calibrated" && !io::read_extrinsics_txt(extr, file, err)) return fail(err);
-    for (std::size_t i = 0; i < cams.size(); ++i) {
-      if (int(i) == ref) continue;
-      if (extr == "calibrated") {
-        FramePyramid<real_t> pyramid;
-        if (core.buffers.pyramid<real_t>(cams[i].slot, cams[i].seq.intr, pyramid) != Status::kOk)
-          return fail("pyramid does not fit");
-        PairCalibrationRun run;
-        std::printf("calibrating T_%s_%s ...\n", r.seq.sensor_name.c_str(), cams[i].seq.sensor_name.c_str());
-        FramePyramid<real_t> pyramid_ref;
-        if (core.buffers.pyramid<real_t>(r.slot, r.seq.intr, pyramid_ref) != Status::kOk) return fail("pyramid does not fit");
-        TrackingBuffers track{&pyramid_ref, core.buffers.icp_workspace<real_t>(r.slot)};
-        if (!run_pair_calibration(cams[std::size_t(ref)], cams[i], core.volume, pyramid,
-                                  core.buffers.icp_workspace<real_t>(cams[i].slot), filter_scratch,
-                                  std::min(frames_max, 20), guess, PairCalibrationParams(), run, err, false, &track))
-          return fail(err);
-        core.volume.clear();
-        if (run.accepted == 0) return fail("calibration of " + cams[i].seq.sensor_name + " refused: " + run.first_reason, 3);
-        mount[i] = run.T_a_b;
-        std::printf("T_%s_%s = %s (%d frames)\n", r.seq.sensor_name.c_str(), cams[i].seq.sensor_name.c_str(),
-                    pose_line(run.T_a_b).c_str(), run.accepted);
-      } else {
-        bool found = false;
-        for (const io::SensorExtrinsic& e : file)
-          if (e.sensor_a == r.seq.sensor_name && e.sensor_b == cams[i].seq.sensor_name) {
-            mount[i] = e.T_a_b;
-            found = true;
-          }
-        if (!found) return fail(extr + " has no line '" + r.seq.sensor_name + " " + cams[i].seq.sensor_name + " ...'");
-      }
-      mounted[i] = 1;
+// --extrinsics calibrated: camera i's mounting found by calibration (as `edgefuse calibrate --frames 20`,
+// reference tracked, from --guess); the space is cleared after.
+bool calibrate_mounting(const FuseRigOptions& o, RigCore& rc, std::size_t i, Failure& f) {
+  std::vector<PinholeSlot>& cams = rc.rs.cams;
+  CoreSetup& core = rc.core;
+  const PinholeSlot& r = cams[std::size_t(rc.rs.ref)];
+  std::string err;
+  FramePyramid<real_t> pyramid;
+  if (core.buffers.pyramid<real_t>(cams[i].slot, cams[i].seq.intr, pyramid) != Status::kOk)
+    return fail(f, "pyramid does not fit");
+  PairCalibrationRun run;
+  std::printf("calibrating T_%s_%s ...\n", r.seq.sensor_name.c_str(), cams[i].seq.sensor_name.c_str());
+  FramePyramid<real_t> pyramid_ref;
+  if (core.buffers.pyramid<real_t>(r.slot, r.seq.intr, pyramid_ref) != Status::kOk)
+    return fail(f, "pyramid does not fit");
+  TrackingBuffers track{&pyramid_ref, core.buffers.icp_workspace<real_t>(r.slot)};
+  if (!run_pair_calibration(cams[std::size_t(rc.rs.ref)], cams[i], core.volume, pyramid,
+                            core.buffers.icp_workspace<real_t>(cams[i].slot), rc.filter_scratch,
+                            std::min(o.frames_max, 20), o.guess, PairCalibrationParams(), run, err, false, &track))
+    return fail(f, err);
+  core.volume.clear();
+  if (run.accepted == 0)
+    return fail(f, "calibration of " + cams[i].seq.sensor_name + " refused: " + run.first_reason, 3);
+  rc.mount[i] = run.T_a_b;
+  std::printf("T_%s_%s = %s (%d frames)\n", r.seq.sensor_name.c_str(), cams[i].seq.sensor_name.c_str(),
+              pose_line(run.T_a_b).c_str(), run.accepted);
+  return true;
+}
+
+// --extrinsics FILE: camera i's mounting read from an extrinsics.txt file (the last matching line).
+bool read_mounting(const std::string& extr, const std::vector<io::SensorExtrinsic>& file, RigCore& rc, std::size_t i,
+                   Failure& f) {
+  const PinholeSlot& r = rc.rs.cams[std::size_t(rc.rs.ref)];
+  const PinholeSlot& c = rc.rs.cams[i];
+  bool found = false;
+  for (const io::SensorExtrinsic& e : file)
+    if (e.sensor_a == r.seq.sensor_name && e.sensor_b == c.seq.sensor_name) {
+      rc.mount[i] = e.T_a_b;
+      found = true;
     }
-  }
+  if (!found) return fail(f, extr + " has no line '" + r.seq.sensor_name + " " + c.seq.sensor_name + " ...'");
+  return true;
+}
 
-  if (use_trust) {
-    if (!plan_sub_unit_fill(rs, filter, sigma_ref, filter_scratch, sub_unit_fill, err)) return fail(err);
-    std::printf("sub-unit fill: samples below half a unit fill a voxel up to %d weight units (%s)\n", sub_unit_fill,
-                sub_unit_fill == kSubUnitFillUnits ? "mixed set" : "one sample");
+// Mountings of the non-reference cameras (--extrinsics true: none, each camera at its own poses).
+bool mount_cameras(const FuseRigOptions& o, RigCore& rc, Failure& f) {
+  const std::size_t cams = rc.rs.cams.size();
+  const std::string extr = o.args.get("extrinsics", "true");
+  rc.mount.assign(cams, Pose());
+  rc.mounted.assign(cams, 0);
+  if (extr == "true") return true;
+  if (rc.rs.ref < 0) return fail(f, "--extrinsics " + extr + " needs a pinhole reference camera", 2);
+  std::string err;
+  std::vector<io::SensorExtrinsic> file;
+  if (extr != "calibrated" && !io::read_extrinsics_txt(extr, file, err)) return fail(f, err);
+  for (std::size_t i = 0; i < cams; ++i) {
+    if (int(i) == rc.rs.ref) continue;
+    if (!(extr == "calibrated" ? calibrate_mounting(o, rc, i, f) : read_mounting(extr, file, rc, i, f))) return false;
+    rc.mounted[i] = 1;
+  }
+  return true;
+}
+
+// The reference camera's colour painted onto all the geometry it saw.
+bool paint_reference_colour(const FuseRigOptions& o, RigCore& rc, Failure& f) {
+  PinholeSlot& cam = rc.rs.cams[std::size_t(rc.rs.ref)];
+  std::string err;
+  const std::size_t n = std::min<std::size_t>(cam.seq.frames.size(), std::size_t(o.frames_max));
+  for (std::size_t i = 0; i < n; ++i) {
+    const io::FrameRef& fr = cam.seq.frames[i];
+    if (fr.colour_path.empty() || !fr.has_pose) continue;
+    if (!io::load_colour(fr, cam.seq.intr, cam.load_colour, err)) return fail(f, err);
+    std::copy(cam.load_colour.begin(), cam.load_colour.end(), cam.colour.data);
+    const Status s = paint_colour<real_t>(rc.core.volume, cam.seq.intr, cam.ray_norms, cam.colour, fr.T_world_cam,
+                                          cam.maps, cam.scratch, cam.depth);
+    if (s != Status::kOk) return fail(f, fr.colour_path + ": paint pass: " + to_string(s));
+  }
+  std::printf("%s: colour painted onto the fused surface from %zu frames\n", cam.seq.sensor_name.c_str(), n);
+  return true;
+}
+
+// Every sensor's frames into the space, then the colour; fuse_ms: the time both took.
+bool fuse_frames(const FuseRigOptions& o, RigCore& rc, double& fuse_ms, Failure& f) {
+  std::string err;
+  if (o.use_trust) {
+    if (!plan_sub_unit_fill(rc.rs, o.filter, o.sigma_ref, rc.filter_scratch, rc.sub_unit_fill, err))
+      return fail(f, err);
+    std::printf("sub-unit fill: samples below half a unit fill a voxel up to %d weight units (%s)\n", rc.sub_unit_fill,
+                rc.sub_unit_fill == kSubUnitFillUnits ? "mixed set" : "one sample");
   }
   PoolRunners threads;
-  threads.start(settings.threads);
+  threads.start(o.settings.threads);
   const auto t_start = std::chrono::steady_clock::now();
-  if (!push_rig_frames(rs, core, threads.runners().tsdf, mount, mounted, std::size_t(frames_max), filter, true, sigma_ref,
-                       filter_scratch, err, true, laser))
-    return fail(err);
-  if (paint && ref >= 0 && cams[std::size_t(ref)].seq.colour_registered && core.volume.has_colour()) {
-    PinholeSlot& cam = cams[std::size_t(ref)];
-    const std::size_t n = std::min<std::size_t>(cam.seq.frames.size(), std::size_t(frames_max));
-    for (std::size_t i = 0; i < n; ++i) {
-      const io::FrameRef& f = cam.seq.frames[i];
-      if (f.colour_path.empty() || !f.has_pose) continue;
-      if (!io::load_colour(f, cam.seq.intr, cam.load_colour, err)) return fail(err);
-      std::copy(cam.load_colour.begin(), cam.load_colour.end(), cam.colour.data);
-      const Status s = paint_colour<real_t>(core.volume, cam.seq.intr, cam.ray_norms, cam.colour, f.T_world_cam,
-                                            cam.maps, cam.scratch, cam.depth);
-      if (s != Status::kOk) return fail(f.colour_path + ": paint pass: " + to_string(s));
-    }
-    std::printf("%s: colour painted onto the fused surface from %zu frames\n", cam.seq.sensor_name.c_str(), n);
-  }
+  if (!push_rig_frames(rc.rs, rc.core, threads.runners().tsdf, rc.mount, rc.mounted, std::size_t(o.frames_max),
+                       o.filter, true, o.sigma_ref, rc.filter_scratch, err, true, o.laser))
+    return fail(f, err);
+  const int ref = rc.rs.ref;
+  if (o.paint && ref >= 0 && rc.rs.cams[std::size_t(ref)].seq.colour_registered && rc.core.volume.has_colour() &&
+      !paint_reference_colour(o, rc, f))
+    return false;
   threads.pool.stop();
-  const double fuse_ms = ms_since(t_start);
+  fuse_ms = ms_since(t_start);
+  return true;
+}
 
+// Confidence filter: keep a point only where some of the 8 voxels around it holds at least
+// min_weight (weight units: 1/8 sample x trust), i.e. the surface there is supported by that much data.
+void keep_confident(const TsdfVolume& volume, int min_weight, io::PointCloud& cloud) {
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+    if (support_weight(volume, cloud.points[i]) < min_weight) continue;
+    cloud.points[kept] = cloud.points[i];
+    cloud.normals[kept] = cloud.normals[i];
+    if (!cloud.colours.empty()) cloud.colours[kept] = cloud.colours[i];
+    cloud.support[kept] = cloud.support[i];
+    ++kept;
+  }
+  cloud.points.resize(kept);
+  cloud.normals.resize(kept);
+  if (!cloud.colours.empty()) cloud.colours.resize(kept);
+  cloud.support.resize(kept);
+  cloud.width = int(kept);
+}
+
+// The cloud (and the mesh), under the set's support rule; the summary line.
+bool write_outputs(const FuseRigOptions& o, RigCore& rc, double fuse_ms, Failure& f) {
+  CoreSetup& core = rc.core;
+  std::string err;
   int min_support = 0;
-  if (use_trust) {
-    const std::vector<float> sigma = median_sigmas(cams);
-    min_support = default_support_weight(sigma.data(), int(sigma.size()), sigma_ref, sub_unit_fill);
+  if (o.use_trust) {
+    const std::vector<float> sigma = median_sigmas(rc.rs.cams);
+    min_support = default_support_weight(sigma.data(), int(sigma.size()), o.sigma_ref, rc.sub_unit_fill);
     std::printf("support rule: both voxels of a crossing hold >= %d weight units%s\n", min_support,
                 min_support == kEvidenceSupportWeight ? " (evidence rule: mixed sub-unit camera)" : "");
   }
   io::PointCloud cloud;
   // Each point carries its evidence (the weaker voxel's weight) as the property / field "support".
   const Status xs = core.extract_cloud(cloud, uint8_t(min_support), true);
-  if (min_weight > 0) {
-    // Confidence filter: keep a point only where some of the 8 voxels around it holds at least
-    // min_weight (weight units: 1/8 sample x trust), i.e. the surface there is supported by that much data.
-    std::size_t kept = 0;
-    for (std::size_t i = 0; i < cloud.points.size(); ++i) {
-      if (support_weight(core.volume, cloud.points[i]) < min_weight) continue;
-      cloud.points[kept] = cloud.points[i];
-      cloud.normals[kept] = cloud.normals[i];
-      if (!cloud.colours.empty()) cloud.colours[kept] = cloud.colours[i];
-      cloud.support[kept] = cloud.support[i];
-      ++kept;
-    }
-    cloud.points.resize(kept);
-    cloud.normals.resize(kept);
-    if (!cloud.colours.empty()) cloud.colours.resize(kept);
-    cloud.support.resize(kept);
-    cloud.width = int(kept);
-  }
+  if (o.min_weight > 0) keep_confident(core.volume, o.min_weight, cloud);
   std::size_t coloured = 0;
   for (const Rgba8& c : cloud.colours) coloured += c.a != 0;
-  const std::string out = args.get("out", "fused.ply");
-  if (!write_cloud(out, cloud, err)) return fail(err);
+  const std::string out = o.args.get("out", "fused.ply");
+  if (!write_cloud(out, cloud, err)) return fail(f, err);
   std::printf("cloud: %zu points (%zu coloured, %zu uncoloured)%s -> %s\n", cloud.size(), coloured,
               cloud.size() - coloured, xs == Status::kOutputTruncated ? " (truncated at the board's capacity)" : "",
               out.c_str());
-  if (args.has("mesh")) {
+  if (o.args.has("mesh")) {
     io::PlyMeshCollector mesh;
     const Status ms = extract_mesh(core.volume, core.buffers.mesh_scratch, mesh, uint8_t(min_support));
-    if (ms != Status::kOk || !mesh.write(args.get("mesh"), err))
-      return fail("mesh: " + (ms != Status::kOk ? std::string(to_string(ms)) : err));
-    std::printf("mesh: %zu vertices -> %s\n", mesh.mesh().vertices.size(), args.get("mesh").c_str());
+    if (ms != Status::kOk || !mesh.write(o.args.get("mesh"), err))
+      return fail(f, "mesh: " + (ms != Status::kOk ? std::string(to_string(ms)) : err));
+    std::printf("mesh: %zu vertices -> %s\n", mesh.mesh().vertices.size(), o.args.get("mesh").c_str());
   }
-  std::printf("sensors=%s points=%zu coloured=%zu voxels=%zu fuse_ms=%.1f\n", args.get("sensors").c_str(), cloud.size(),
-              coloured, core.volume.observed_voxels(), fuse_ms);
+  std::printf("sensors=%s points=%zu coloured=%zu voxels=%zu fuse_ms=%.1f\n", o.args.get("sensors").c_str(),
+              cloud.size(), coloured, core.volume.observed_voxels(), fuse_ms);
+  return true;
+}
+
+}  // namespace
+
+int cmd_fuse_rig(int argc, char** argv) {
+  FuseRigOptions o;
+  Failure f;
+  RigCore rc;
+  double fuse_ms = 0;
+  if (!parse_options(argc, argv, o, f) || !open_sensors(o, rc, f) || !bind_sensors(rc, f) ||
+      !apply_noise_rules(o, rc, f) || !place_volume(o, rc, f) || !mount_cameras(o, rc, f) ||
+      !fuse_frames(o, rc, fuse_ms, f) || !write_outputs(o, rc, fuse_ms, f))
+    return report(f);
   return 0;
 }
 

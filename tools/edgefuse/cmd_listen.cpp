@@ -89,113 +89,175 @@ link::StaticStreamDecoder<link::kMaxPayload> g_decoder;
 link::Message g_message;
 uint8_t g_buf[65536];
 
-}  // namespace
 
-int cmd_listen(int argc, char** argv) {
+// A refusal: the message, the exit code (2: the command line, 1: the link) and whether the usage
+// follows it.
+struct Failure {
+  std::string message;
+  int code = 1;
+  bool usage = false;
+};
+
+bool fail(Failure& f, const std::string& message, int code = 1) {
+  f.message = message;
+  f.code = code;
+  return false;
+}
+
+int report(const Failure& f) {
+  std::fprintf(stderr, "edgefuse listen: %s\n%s", f.message.c_str(), f.usage ? kUsage : "");
+  return f.code;
+}
+
+// What the command line asks for.
+struct ListenOptions {
   Args args;
-  std::string err;
-  if (!args.parse(argc, argv, {"serial", "baud", "tcp", "udp", "file", "count", "timeout-s"}, {"csv"}, err) ||
-      !args.positional().empty()) {
-    std::fprintf(stderr, "edgefuse listen: %s\n%s", err.empty() ? "unexpected argument" : err.c_str(), kUsage);
-    return 2;
-  }
-  const int sources = args.has("serial") + args.has("tcp") + args.has("udp") + args.has("file");
-  if (sources != 1) {
-    std::fprintf(stderr, "edgefuse listen: give exactly one of --serial, --tcp, --udp, --file\n%s", kUsage);
-    return 2;
-  }
   int baud = 115200, count = 0, udp_port = 0;
   float timeout_s = 0;
-  if ((args.has("baud") && !args.get_int("baud", 1200, 4000000, baud, err)) ||
-      (args.has("count") && !args.get_int("count", 1, 1 << 30, count, err)) ||
-      (args.has("udp") && !args.get_int("udp", 1, 65535, udp_port, err)) ||
-      (args.has("timeout-s") && !args.get_float("timeout-s", 0.01f, 1e6f, timeout_s, err))) {
-    std::fprintf(stderr, "edgefuse listen: %s\n", err.c_str());
-    return 2;
-  }
-  if (args.has("baud") && !hal::baud_supported(baud)) {
-    std::fprintf(stderr, "edgefuse listen: --baud %d is not a standard rate (e.g. 9600, 115200, 921600)\n", baud);
-    return 2;
-  }
-  const bool csv = args.has("csv");
+  bool csv = false;
+};
 
+bool parse_options(int argc, char** argv, ListenOptions& o, Failure& f) {
+  const Args& args = o.args;
+  std::string err;
+  f.usage = true;
+  if (!o.args.parse(argc, argv, {"serial", "baud", "tcp", "udp", "file", "count", "timeout-s"}, {"csv"}, err) ||
+      !args.positional().empty())
+    return fail(f, err.empty() ? "unexpected argument" : err, 2);
+  const int sources = args.has("serial") + args.has("tcp") + args.has("udp") + args.has("file");
+  if (sources != 1) return fail(f, "give exactly one of --serial, --tcp, --udp, --file", 2);
+  f.usage = false;
+  if ((args.has("baud") && !args.get_int("baud", 1200, 4000000, o.baud, err)) ||
+      (args.has("count") && !args.get_int("count", 1, 1 << 30, o.count, err)) ||
+      (args.has("udp") && !args.get_int("udp", 1, 65535, o.udp_port, err)) ||
+      (args.has("timeout-s") && !args.get_float("timeout-s", 0.01f, 1e6f, o.timeout_s, err)))
+    return fail(f, err, 2);
+  if (args.has("baud") && !hal::baud_supported(o.baud))
+    return fail(f, "--baud " + std::to_string(o.baud) + " is not a standard rate (e.g. 9600, 115200, 921600)", 2);
+  o.csv = args.has("csv");
+  return true;
+}
+
+// Where the frames come from.
+struct Source {
   int fd = -1;
-  bool datagrams = false;
-  bool is_file = false;
+  bool datagrams = false;  // UDP: one frame per datagram
+  bool is_file = false;    // a captured stream: read to its end, no polling
+};
+
+bool open_source(const ListenOptions& o, Source& src, Failure& f) {
+  const Args& args = o.args;
+  std::string err;
   if (args.has("serial")) {
-    fd = hal::serial_open(args.get("serial").c_str(), baud, err);
+    src.fd = hal::serial_open(args.get("serial").c_str(), o.baud, err);
   } else if (args.has("tcp")) {
     std::string host;
     int port = 0;
     if (hal::parse_host_port(args.get("tcp"), host, port, err))
-      fd = hal::tcp_connect(host.empty() ? "127.0.0.1" : host.c_str(), port, err);
+      src.fd = hal::tcp_connect(host.empty() ? "127.0.0.1" : host.c_str(), port, err);
   } else if (args.has("udp")) {
-    fd = hal::udp_bind(udp_port, err);
-    datagrams = true;
+    src.fd = hal::udp_bind(o.udp_port, err);
+    src.datagrams = true;
   } else {
-    fd = ::open(args.get("file").c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) err = args.get("file") + ": " + std::strerror(errno);
-    is_file = true;
+    src.fd = ::open(args.get("file").c_str(), O_RDONLY | O_CLOEXEC);
+    if (src.fd < 0) err = args.get("file") + ": " + std::strerror(errno);
+    src.is_file = true;
   }
-  if (fd < 0) {
-    std::fprintf(stderr, "edgefuse listen: %s\n", err.c_str());
-    return 1;
-  }
+  if (src.fd < 0) return fail(f, err);
+  return true;
+}
 
+// What arrived.
+struct Counts {
   int results = 0, heartbeats = 0, bad_datagrams = 0, bad_payloads = 0;
+  double last_frame_s = 0;  // when the last valid frame arrived (for --timeout-s)
+};
+
+void handle_payload(const uint8_t* p, size_t n, bool csv, Counts& c) {
+  c.last_frame_s = now_s();
+  if (!link::decode_message(p, n, g_message)) {
+    ++c.bad_payloads;
+    return;
+  }
+  if (g_message.which_body == edgefuse_link_Message_result_tag) ++c.results;
+  if (g_message.which_body == edgefuse_link_Message_heartbeat_tag) ++c.heartbeats;
+  print_message(g_message, csv);
+}
+
+enum class Wait { kReady, kAgain, kStop };
+
+// Polls the link for 100 ms; rc = 1 when --timeout-s passed without a valid frame.
+Wait wait_for_data(const ListenOptions& o, const Source& src, const Counts& c, int& rc) {
+  pollfd pfd{src.fd, POLLIN, 0};
+  const int pr = ::poll(&pfd, 1, 100);
+  if (pr < 0 && errno != EINTR) return Wait::kStop;
+  if (pr > 0) return Wait::kReady;
+  if (o.timeout_s > 0 && now_s() - c.last_frame_s > o.timeout_s) {
+    std::fprintf(stderr, "edgefuse listen: no valid frame for %.1f s\n", double(o.timeout_s));
+    rc = 1;
+    return Wait::kStop;
+  }
+  return Wait::kAgain;
+}
+
+// n bytes read: one datagram, or a piece of the stream (decoded up to --count results).
+void decode_bytes(const ListenOptions& o, const Source& src, ssize_t n, Counts& c) {
+  if (src.datagrams) {
+    size_t len = 0;
+    if (link::frame_decode_inplace(g_buf, size_t(n), len))
+      handle_payload(g_buf, len, o.csv, c);
+    else
+      ++c.bad_datagrams;
+    return;
+  }
+  for (ssize_t i = 0; i < n && (o.count == 0 || c.results < o.count); ++i)
+    if (g_decoder.push(g_buf[i])) handle_payload(g_decoder.payload(), g_decoder.payload_size(), o.csv, c);
+}
+
+// Reads and prints until --count results, the end of a file, a closed link or the timeout; the exit code.
+int listen_loop(const ListenOptions& o, const Source& src, Counts& c) {
   int rc = 0;
-  double last_frame_s = now_s();
-  auto handle_payload = [&](const uint8_t* p, size_t n) {
-    last_frame_s = now_s();
-    if (!link::decode_message(p, n, g_message)) {
-      ++bad_payloads;
-      return;
+  c.last_frame_s = now_s();
+  while (o.count == 0 || c.results < o.count) {
+    if (!src.is_file) {
+      const Wait w = wait_for_data(o, src, c, rc);
+      if (w == Wait::kStop) break;
+      if (w == Wait::kAgain) continue;
     }
-    if (g_message.which_body == edgefuse_link_Message_result_tag) ++results;
-    if (g_message.which_body == edgefuse_link_Message_heartbeat_tag) ++heartbeats;
-    print_message(g_message, csv);
-  };
-  while (count == 0 || results < count) {
-    if (!is_file) {
-      pollfd pfd{fd, POLLIN, 0};
-      const int pr = ::poll(&pfd, 1, 100);
-      if (pr < 0 && errno != EINTR) break;
-      if (pr <= 0) {
-        if (timeout_s > 0 && now_s() - last_frame_s > timeout_s) {
-          std::fprintf(stderr, "edgefuse listen: no valid frame for %.1f s\n", double(timeout_s));
-          rc = 1;
-          break;
-        }
-        continue;
-      }
-    }
-    const ssize_t n = ::read(fd, g_buf, sizeof(g_buf));
+    const ssize_t n = ::read(src.fd, g_buf, sizeof(g_buf));
     if (n < 0 && (errno == EAGAIN || errno == EINTR)) continue;
     if (n <= 0) {
-      if (!is_file) {
+      if (!src.is_file) {
         std::fprintf(stderr, "edgefuse listen: the link closed (%s)\n", n < 0 ? std::strerror(errno) : "end of stream");
         rc = 1;
       }
       break;
     }
-    if (datagrams) {
-      size_t len = 0;
-      if (link::frame_decode_inplace(g_buf, size_t(n), len))
-        handle_payload(g_buf, len);
-      else
-        ++bad_datagrams;
-      continue;
-    }
-    for (ssize_t i = 0; i < n && (count == 0 || results < count); ++i)
-      if (g_decoder.push(g_buf[i])) handle_payload(g_decoder.payload(), g_decoder.payload_size());
+    decode_bytes(o, src, n, c);
   }
-  ::close(fd);
+  return rc;
+}
+
+void print_summary(const Counts& c) {
   const link::DecoderStats& s = g_decoder.stats();
   std::fprintf(stderr,
                "listen: %d results, %d heartbeats, crc_errors=%" PRIu32 " cobs_errors=%" PRIu32 " overruns=%" PRIu32
                " bad_datagrams=%d bad_payloads=%d\n",
-               results, heartbeats, s.crc_errors, s.cobs_errors, s.overruns, bad_datagrams, bad_payloads);
-  if (count > 0 && results < count && rc == 0) rc = 1;
+               c.results, c.heartbeats, s.crc_errors, s.cobs_errors, s.overruns, c.bad_datagrams, c.bad_payloads);
+}
+
+}  // namespace
+
+int cmd_listen(int argc, char** argv) {
+  ListenOptions o;
+  Failure f;
+  Source src;
+  if (!parse_options(argc, argv, o, f) || !open_source(o, src, f)) return report(f);
+  Counts counts;
+  int rc = listen_loop(o, src, counts);
+  ::close(src.fd);
+  print_summary(counts);
+  if (o.count > 0 && counts.results < o.count && rc == 0) rc = 1;
   return rc;
 }
 

@@ -79,9 +79,23 @@ class PhaseClock : public StepObserver {
   double cpu_[5] = {};
 };
 
-int fail(const std::string& msg) {
-  std::fprintf(stderr, "edgefuse track: %s\n", msg.c_str());
-  return 1;
+// A refusal: the message, the exit code (2: the command line, 1: the data) and whether the usage
+// follows it.
+struct Failure {
+  std::string message;
+  int code = 1;
+  bool usage = false;
+};
+
+bool fail(Failure& f, const std::string& message, int code = 1) {
+  f.message = message;
+  f.code = code;
+  return false;
+}
+
+int report(const Failure& f) {
+  std::fprintf(stderr, "edgefuse track: %s\n%s", f.message.c_str(), f.usage ? kUsage : "");
+  return f.code;
 }
 
 void print_frame(std::size_t i, std::size_t n, double stamp_s, const TrackResult& r, const PhaseClock& clock) {
@@ -124,112 +138,168 @@ void add_frame(const TrackResult& r, const PhaseClock& clock, Totals& sum) {
   sum.pushed += r.push;
 }
 
-}  // namespace
 
-int cmd_track(int argc, char** argv) {
+// What the command line asks for.
+struct TrackOptions {
   Args args;
+  FuseSettings settings;
+  int frames_max = 0;
+};
+
+bool parse_options(int argc, char** argv, TrackOptions& o, Failure& f) {
   std::string err;
-  if (!args.parse(argc, argv, {"sensor", "frames", "out", "cloud", "voxel", "trunc", "volume", "threads"},
-                  {"push-every-frame"}, err) ||
-      args.positional().size() != 1) {
-    std::fprintf(stderr, "edgefuse track: %s\n%s", err.empty() ? "expected one DATASET" : err.c_str(), kUsage);
-    return 2;
+  if (!o.args.parse(argc, argv, {"sensor", "frames", "out", "cloud", "voxel", "trunc", "volume", "threads"},
+                    {"push-every-frame"}, err) ||
+      o.args.positional().size() != 1) {
+    f.usage = true;
+    return fail(f, err.empty() ? "expected one DATASET" : err, 2);
   }
   const BoardCapacities& board = build_board();
-  FuseSettings settings;
-  if (!board_fuse_settings(settings, err)) return fail(err);
-  int frames_max = 0;
-  if (!apply_fuse_options(args, settings, frames_max, err)) {  // no --origin: centred on the first view
-    std::fprintf(stderr, "edgefuse track: %s\n", err.c_str());
-    return 2;
-  }
-  if (board.sensors_max < 2) return fail("board " + std::string(board.name) + " has no spare frame buffer for filtering");
+  if (!board_fuse_settings(o.settings, err)) return fail(f, err);
+  // no --origin: centred on the first view
+  if (!apply_fuse_options(o.args, o.settings, o.frames_max, err)) return fail(f, err, 2);
+  if (board.sensors_max < 2)
+    return fail(f, "board " + std::string(board.name) + " has no spare frame buffer for filtering");
+  return true;
+}
 
+// The sequence, the core it is fused in and what the loop produces.
+struct TrackRun {
   io::DepthSequence seq;
-  if (!io::open_depth_sequence(args.positional()[0], args.get("sensor"), seq, err)) return fail(err);
-  const std::size_t frame_count = std::min<std::size_t>(seq.frames.size(), std::size_t(frames_max));
-  if (frame_count == 0) return fail(seq.root + " has no frames");
-  const PinholeIntrinsics& intr = seq.intr;
-
-  // Pre-filters and noise model by the sensor's kind: ToF when the sequence has amplitude images.
-  const bool tof = !seq.frames[0].amplitude_path.empty();
+  std::size_t frame_count = 0;
+  bool tof = false;  // pre-filters and noise model by the sensor's kind: ToF with amplitude images
+  Pose first_pose;   // the first frame's ground truth, else the identity
   CoreSetup core;
   CameraSlot cam;
-  if (!core.init(board, intr, err) ||
-      !core.bind_camera(cam, 0, intr, tof ? DepthSensorKind::kTimeOfFlight : DepthSensorKind::kStructuredLight,
-                        true, false, err))
-    return fail(seq.root + ": " + err);
-
-  const Pose first_pose = seq.frames[0].has_pose ? seq.frames[0].T_world_cam : Pose::identity();
-  std::vector<uint16_t> depth, amplitude;
+  std::vector<uint16_t> depth, amplitude;  // the frame being tracked (the first one once the volume is placed)
   std::vector<Rgb8> colour;
-  if (!io::load_depth(seq.frames[0], intr, depth, err)) return fail(err);
-  if (!centre_on_view(intr, depth, first_pose, settings, seq.frames[0].depth_path, err)) return fail(err);
-  if (!core.make_volume(settings, err)) return fail(err);
+  std::vector<io::StampedPose> trajectory;
+  Totals sum;
+};
 
-  PoolRunners threads;
-  threads.start(settings.threads);
-  MapperParams mp;
-  mp.poses = PoseMode::kTracked;
-  mp.tracker.push.every_frame = args.has("push-every-frame");
-  Mapper mapper;
-  if (mapper.init(core.volume, threads.runners(), core.spare_image(intr.width, intr.height),
-                  core.centre_scratch(intr), mp) != Status::kOk)
-    return fail("bad tracker parameters");
-  mapper.new_map_in_place();  // centred on the raw first view above
+bool open_sequence(const TrackOptions& o, TrackRun& run, Failure& f) {
+  std::string err;
+  if (!io::open_depth_sequence(o.args.positional()[0], o.args.get("sensor"), run.seq, err)) return fail(f, err);
+  run.frame_count = std::min<std::size_t>(run.seq.frames.size(), std::size_t(o.frames_max));
+  if (run.frame_count == 0) return fail(f, run.seq.root + " has no frames");
+  return true;
+}
 
-  const Vec3f& o = core.volume.origin_m();
+// The core's buffers and the camera, then the volume centred on what the first frame sees.
+bool set_up_core(TrackOptions& o, TrackRun& run, Failure& f) {
+  const io::DepthSequence& seq = run.seq;
+  const PinholeIntrinsics& intr = seq.intr;
+  std::string err;
+  // Pre-filters and noise model by the sensor's kind: ToF when the sequence has amplitude images.
+  run.tof = !seq.frames[0].amplitude_path.empty();
+  if (!run.core.init(build_board(), intr, err) ||
+      !run.core.bind_camera(run.cam, 0, intr,
+                            run.tof ? DepthSensorKind::kTimeOfFlight : DepthSensorKind::kStructuredLight, true, false,
+                            err))
+    return fail(f, seq.root + ": " + err);
+  run.first_pose = seq.frames[0].has_pose ? seq.frames[0].T_world_cam : Pose::identity();
+  if (!io::load_depth(seq.frames[0], intr, run.depth, err)) return fail(f, err);
+  if (!centre_on_view(intr, run.depth, run.first_pose, o.settings, seq.frames[0].depth_path, err)) return fail(f, err);
+  if (!run.core.make_volume(o.settings, err)) return fail(f, err);
+  return true;
+}
+
+void print_header(const TrackOptions& o, const TrackRun& run, const MapperParams& mp) {
+  const io::DepthSequence& seq = run.seq;
+  const PinholeIntrinsics& intr = seq.intr;
+  const FuseSettings& settings = o.settings;
+  const Vec3f& org = run.core.volume.origin_m();
   std::printf("edgefuse track: %s (%s, sensor %s), %zu of %zu frames, %dx%d fx %.1f fy %.1f, %s filters\n",
-              seq.root.c_str(), io::to_string(seq.layout), seq.sensor_name.c_str(), frame_count, seq.frames.size(),
-              intr.width, intr.height, intr.fx, intr.fy, tof ? "time-of-flight" : "structured-light");
+              seq.root.c_str(), io::to_string(seq.layout), seq.sensor_name.c_str(), run.frame_count,
+              seq.frames.size(), intr.width, intr.height, intr.fx, intr.fy,
+              run.tof ? "time-of-flight" : "structured-light");
   std::printf("volume: %d^3 voxels of %.4f m, origin %.4f,%.4f,%.4f, trunc %.4f m, %s kernels, %d threads; "
               "first pose from %s; push %s\n",
-              settings.dim, settings.voxel_m, o.x(), o.y(), o.z(), settings.trunc_m,
+              settings.dim, settings.voxel_m, org.x(), org.y(), org.z(), settings.trunc_m,
               kFixedPointBuild ? "fixed-point" : "float", settings.threads,
               seq.frames[0].has_pose ? "ground truth" : "identity",
               mp.tracker.push.every_frame ? "every frame" : "after 1 cm / 1 deg");
+}
 
-  const bool use_colour = seq.colour_registered && core.volume.has_colour();
-  std::vector<io::StampedPose> trajectory;
-  trajectory.reserve(frame_count);
-  Totals sum;
+// Frame i: loaded (frame 0 already is), tracked and pushed by the mapping step, timed per phase.
+bool track_frame(TrackRun& run, std::size_t i, Mapper& mapper, PhaseClock& clock, Failure& f) {
+  const io::DepthSequence& seq = run.seq;
+  const PinholeIntrinsics& intr = seq.intr;
+  const io::FrameRef& fr = seq.frames[i];
+  std::string err;
+  if (i > 0 && !io::load_depth(fr, intr, run.depth, err)) return fail(f, err);
+  const bool with_colour = seq.colour_registered && run.core.volume.has_colour() && !fr.colour_path.empty();
+  if (with_colour && !io::load_colour(fr, intr, run.colour, err)) return fail(f, err);
+  if (run.tof && !fr.amplitude_path.empty() && !io::load_amplitude(fr, intr, run.amplitude, err)) return fail(f, err);
+  const DepthFrame staged = run.core.stage_frame(run.depth, with_colour ? &run.colour : nullptr);
+  SensorFrame frame;
+  frame.depth = staged.depth;
+  frame.colour = staged.colour;
+  if (run.tof && !run.amplitude.empty())
+    frame.amplitude = ImageView<const uint16_t>(run.amplitude.data(), intr.width, intr.height);
+
+  clock.begin();
+  ReferenceStep step;
+  const Status s = mapper.map_reference(run.cam, frame, nullptr, run.first_pose, step, &clock);
+  if (s != Status::kOk) return fail(f, "frame " + std::to_string(i) + " (" + fr.depth_path + "): " + to_string(s));
+  run.trajectory.push_back(io::StampedPose{fr.stamp_s, step.T_world_cam});
+  add_frame(step.track, clock, run.sum);
+  print_frame(i, run.frame_count, fr.stamp_s, step.track, clock);
+  return true;
+}
+
+// The loop: every frame through the pipeline's mapping step at tracked poses.
+bool track_frames(const TrackOptions& o, TrackRun& run, Failure& f) {
+  const PinholeIntrinsics& intr = run.seq.intr;
+  PoolRunners threads;
+  threads.start(o.settings.threads);
+  MapperParams mp;
+  mp.poses = PoseMode::kTracked;
+  mp.tracker.push.every_frame = o.args.has("push-every-frame");
+  Mapper mapper;
+  if (mapper.init(run.core.volume, threads.runners(), run.core.spare_image(intr.width, intr.height),
+                  run.core.centre_scratch(intr), mp) != Status::kOk)
+    return fail(f, "bad tracker parameters");
+  mapper.new_map_in_place();  // centred on the raw first view above
+  print_header(o, run, mp);
+  run.trajectory.reserve(run.frame_count);
   PhaseClock clock;
-  for (std::size_t i = 0; i < frame_count; ++i) {
-    const io::FrameRef& f = seq.frames[i];
-    if (i > 0 && !io::load_depth(f, intr, depth, err)) return fail(err);
-    const bool with_colour = use_colour && !f.colour_path.empty();
-    if (with_colour && !io::load_colour(f, intr, colour, err)) return fail(err);
-    if (tof && !f.amplitude_path.empty() && !io::load_amplitude(f, intr, amplitude, err)) return fail(err);
-    const DepthFrame staged = core.stage_frame(depth, with_colour ? &colour : nullptr);
-    SensorFrame frame;
-    frame.depth = staged.depth;
-    frame.colour = staged.colour;
-    if (tof && !amplitude.empty()) frame.amplitude = ImageView<const uint16_t>(amplitude.data(), intr.width, intr.height);
-
-    clock.begin();
-    ReferenceStep step;
-    const Status s = mapper.map_reference(cam, frame, nullptr, first_pose, step, &clock);
-    if (s != Status::kOk) return fail("frame " + std::to_string(i) + " (" + f.depth_path + "): " + to_string(s));
-    trajectory.push_back(io::StampedPose{f.stamp_s, step.T_world_cam});
-    add_frame(step.track, clock, sum);
-    print_frame(i, frame_count, f.stamp_s, step.track, clock);
-  }
+  for (std::size_t i = 0; i < run.frame_count; ++i)
+    if (!track_frame(run, i, mapper, clock, f)) return false;
   threads.pool.stop();
+  return true;
+}
 
-  const std::string out = args.get("out", "track.txt");
-  if (!io::write_tum_trajectory(out, trajectory, err,
+// The trajectory (and the cloud), then the totals.
+bool write_outputs(const TrackOptions& o, const TrackRun& run, Failure& f) {
+  const io::DepthSequence& seq = run.seq;
+  std::string err;
+  const std::string out = o.args.get("out", "track.txt");
+  if (!io::write_tum_trajectory(out, run.trajectory, err,
                                 "edgefuse track " + seq.root + " (sensor " + seq.sensor_name + "), sensor-to-world"))
-    return fail(err);
-  std::printf("trajectory: %zu poses -> %s\n", trajectory.size(), out.c_str());
-  if (args.has("cloud")) {
+    return fail(f, err);
+  std::printf("trajectory: %zu poses -> %s\n", run.trajectory.size(), out.c_str());
+  if (o.args.has("cloud")) {
     io::PointCloud cloud;
-    const Status xs = core.extract_cloud(cloud);
-    if (!write_cloud(args.get("cloud"), cloud, err)) return fail(err);
+    const Status xs = run.core.extract_cloud(cloud);
+    if (!write_cloud(o.args.get("cloud"), cloud, err)) return fail(f, err);
     std::printf("cloud: %zu points%s -> %s\n", cloud.size(),
                 xs == Status::kOutputTruncated ? " (truncated at the board's point capacity)" : "",
-                args.get("cloud").c_str());
+                o.args.get("cloud").c_str());
   }
-  print_totals(frame_count, sum);
+  print_totals(run.frame_count, run.sum);
+  return true;
+}
+
+}  // namespace
+
+int cmd_track(int argc, char** argv) {
+  TrackOptions o;
+  Failure f;
+  TrackRun run;
+  if (!parse_options(argc, argv, o, f) || !open_sequence(o, run, f) || !set_up_core(o, run, f) ||
+      !track_frames(o, run, f) || !write_outputs(o, run, f))
+    return report(f);
   return 0;
 }
 

@@ -154,27 +154,13 @@ bool parse_guess(const std::string& text, Pose& T, std::string& err) {
   return true;
 }
 
-bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, FramePyramid<real_t>& pyramid,
-                          const IcpWorkspace<real_t>& ws, ImageView<uint16_t> filter_scratch, int frames,
-                          const Pose& guess, const PairCalibrationParams& params, PairCalibrationRun& run,
-                          std::string& err, bool verbose, const TrackingBuffers* track_a) {
-  run = PairCalibrationRun{};
-  // Masks and jump edges, but no bilateral smoothing: it moves depth edges, and edges are what pin
-  // the lateral directions (measured on bin_rig_a: 1.1 mm bias with it, 0.6 mm without).
-  // (The slots' own settings are restored on return: fusion keeps the bilateral filter.)
-  struct Restore {
-    PinholeSlot& a;
-    PinholeSlot& b;
-    bool ba, bb;
-    ~Restore() {
-      a.filters.bilateral_enabled = ba;
-      b.filters.bilateral_enabled = bb;
-    }
-  } restore{a, b, a.filters.bilateral_enabled, b.filters.bilateral_enabled};
-  a.filters.bilateral_enabled = false;
-  b.filters.bilateral_enabled = false;
-  const std::size_t n = std::min<std::size_t>(std::size_t(frames), a.seq.frames.size());
-  std::vector<Pose> pose_a(n);
+namespace {
+
+// A's first n frames into the space: at A's ground truth, or (track_a) tracked against the space
+// from A's first ground-truth pose; pose_a: the pose each frame was fused at.
+bool fill_space_from_a(PinholeSlot& a, TsdfVolume& volume, ImageView<uint16_t> filter_scratch, std::size_t n,
+                       const TrackingBuffers* track_a, std::vector<Pose>& pose_a, PairCalibrationRun& run,
+                       std::string& err) {
   Tracker tracker;
   if (track_a != nullptr) {
     if (!a.seq.frames[0].has_pose) {
@@ -220,8 +206,17 @@ bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, Fr
       return false;
     }
   }
+  return true;
+}
+
+// B's frames at A's instants registered to the space raycast at A's poses times the guess
+// (calibrate_pair); each result into run.frames, the accepted ones averaged into run.
+bool register_b_frames(const PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, FramePyramid<real_t>& pyramid,
+                       const IcpWorkspace<real_t>& ws, ImageView<uint16_t> filter_scratch,
+                       const std::vector<Pose>& pose_a, const Pose& guess, const PairCalibrationParams& params,
+                       PairCalibrationRun& run, std::string& err, bool verbose) {
   PoseMean accepted;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < pose_a.size(); ++i) {
     const int j = frame_near(b.seq, a.seq.frames[i].stamp_s);
     if (j < 0) continue;
     DepthFrame f;
@@ -258,6 +253,33 @@ bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, Fr
   run.sigma = accepted.mean_sigma();
   run.spread = accepted.spread();
   return true;
+}
+
+}  // namespace
+
+bool run_pair_calibration(PinholeSlot& a, PinholeSlot& b, TsdfVolume& volume, FramePyramid<real_t>& pyramid,
+                          const IcpWorkspace<real_t>& ws, ImageView<uint16_t> filter_scratch, int frames,
+                          const Pose& guess, const PairCalibrationParams& params, PairCalibrationRun& run,
+                          std::string& err, bool verbose, const TrackingBuffers* track_a) {
+  run = PairCalibrationRun{};
+  // Masks and jump edges, but no bilateral smoothing: it moves depth edges, and edges are what pin
+  // the lateral directions (measured on bin_rig_a: 1.1 mm bias with it, 0.6 mm without).
+  // (The slots' own settings are restored on return: fusion keeps the bilateral filter.)
+  struct Restore {
+    PinholeSlot& a;
+    PinholeSlot& b;
+    bool ba, bb;
+    ~Restore() {
+      a.filters.bilateral_enabled = ba;
+      b.filters.bilateral_enabled = bb;
+    }
+  } restore{a, b, a.filters.bilateral_enabled, b.filters.bilateral_enabled};
+  a.filters.bilateral_enabled = false;
+  b.filters.bilateral_enabled = false;
+  const std::size_t n = std::min<std::size_t>(std::size_t(frames), a.seq.frames.size());
+  std::vector<Pose> pose_a(n);
+  return fill_space_from_a(a, volume, filter_scratch, n, track_a, pose_a, run, err) &&
+         register_b_frames(a, b, volume, pyramid, ws, filter_scratch, pose_a, guess, params, run, err, verbose);
 }
 
 // --- multi-sensor fusion of a rig set
