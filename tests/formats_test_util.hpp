@@ -1,4 +1,4 @@
-// Helpers for the hal/formats suites: a scratch folder, raw file I/O, cut/garbage variants of a
+// Helpers for the tools/formats suites: a scratch folder, raw file I/O, cut/garbage variants of a
 // valid file, and the check that a failure message names the file. Include the edgefuse headers
 // first; this header includes test_support.hpp (CppUTest) last.
 #pragma once

@@ -95,7 +95,7 @@ TEST(TrackingSequence, KnownMotionIsTrackedWithinAMillimetreAndATenthOfADegree) 
 TEST(TrackingSequence, ThreadsDoNotChangeTheResult) {
   const std::vector<Pose> truth = known_motion(4);
   const SequenceRun serial = track_sequence(truth, nullptr);
-  WorkerPool pool;  // rows in chunks over three threads, as the tools run them (hal/os)
+  WorkerPool pool;  // rows in chunks over three threads, as the tools run them (hal/platform/threads)
   pool.start(3);
   PoolRowRunner rows(pool, 3);
   const SequenceRun threaded = track_sequence(truth, rows.runner());

@@ -1,5 +1,5 @@
 // `edgefuse calibrate --store DIR`: puts a calibrated T_A_B into the on-board calibration store
-// (hal/runtime CalibFileStore: two CRC-checked slots, atomic save), keeping everything else the
+// (hal/platform/config CalibFileStore: two CRC-checked slots, atomic save), keeping everything else the
 // newest valid slot holds (other pairs, intrinsic overrides, hand-eye, bin pose).
 #pragma once
 

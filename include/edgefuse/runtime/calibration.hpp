@@ -2,7 +2,7 @@
 // on the flange (hand-eye), the bin pose) and its slot image: a fixed little-endian layout with
 // a header (magic, format version, sequence number, payload length) and a CRC-32 over both, so a
 // torn, truncated or bit-flipped slot is recognised. Portable: no OS calls, no heap. The files and
-// the atomic two-slot writing are in hal/runtime (calib_file_store.hpp).
+// the atomic two-slot writing are in hal/platform/config (calib_file_store.hpp).
 #pragma once
 
 #include <cstddef>

@@ -1,7 +1,7 @@
 // The processing pipeline as the runtime sees it (HAL frames -> filters -> tracking -> fusion ->
-// localisation). edgefused drives it through this interface so the state machine, console and
-// link are independent of how poses are produced: the HAL/fusion/localisation pipeline plugs in
-// here; until then host-sim uses a simulated pose source (tools/edgefused/sim_pipeline.cpp).
+// localisation), in plain types: the state machine, console and link do not depend on how poses
+// are produced. edgefused plugs in its device pipeline (src/firmware/device_pipeline.hpp); the
+// tests a pipeline of exact, fixed results (tests/firmware/exact_pose_pipeline.hpp).
 // Calls must return quickly (the main loop also serves the console and the link).
 #pragma once
 
