@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "failure.hpp"
 #include "args.hpp"
 #include "core_setup.hpp"
 #include "edgefuse/io/dataset.hpp"
@@ -106,24 +107,7 @@ const char* kUsage =
     "  edgefuse track --threads N) and prints wall-clock and all-thread CPU time per raycast.\n";
 
 
-// A refusal: the message, the exit code (2: the command line, 1: the data) and whether the usage
-// follows it.
-struct Failure {
-  std::string message;
-  int code = 1;
-  bool usage = false;
-};
 
-bool fail(Failure& f, const std::string& message, int code = 1) {
-  f.message = message;
-  f.code = code;
-  return false;
-}
-
-int report(const Failure& f) {
-  std::fprintf(stderr, "edgefuse_tsdf_bench: %s\n%s", f.message.c_str(), f.usage ? kUsage : "");
-  return f.code;
-}
 
 // What the command line asks for.
 struct BenchOptions {
@@ -330,15 +314,15 @@ int main(int argc, char** argv) {
   Bench b;
   FuseTimes t;
   CastStats c;
-  if (!parse_options(argc, argv, o, f) || !set_up(o, b, f) || !fuse_frames(o, b, t, f)) return report(f);
+  if (!parse_options(argc, argv, o, f) || !set_up(o, b, f) || !fuse_frames(o, b, t, f)) return report("edgefuse_tsdf_bench", f, kUsage);
   const uint64_t checksum = volume_checksum(b.core.volume);
-  if (!cast_final_volume(o, b, c, f)) return report(f);
+  if (!cast_final_volume(o, b, c, f)) return report("edgefuse_tsdf_bench", f, kUsage);
   print_summary(o, b, t, c, checksum);
   if (o.cast && o.cast_threads > 1) cast_on_threads(o, b);
   if (o.args.has("truth"))
     std::printf("against the frames' depth: %zu pixels with both, %zu off by more than 1 cm\n", c.truth_both,
                 c.truth_off_1cm);
-  if (o.args.has("dump") && !write_dump(o.args.get("dump"), c.dump, f)) return report(f);
+  if (o.args.has("dump") && !write_dump(o.args.get("dump"), c.dump, f)) return report("edgefuse_tsdf_bench", f, kUsage);
   if (o.args.has("compare") && !compare_dumps(c.dump, o.args.get("compare"), b.cast_pixels, o.s.voxel_m)) return 1;
   return 0;
 }

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <string>
 
+#include "failure.hpp"
 #include "args.hpp"
 #include "edgefuse/hal/platform/config/board_defaults.hpp"
 #include "calib_store_io.hpp"
@@ -37,24 +38,7 @@ const char* kUsage =
     "  the maps is the mounting. Two spaces share the board's voxel storage: default volume 200^3\n"
     "  (256^3 board) of 0.512 m / 200.\n";
 
-// A refusal: the message, the exit code (2: the command line, 1: the data, 3: the data does not
-// determine the mounting) and whether the usage follows it.
-struct Failure {
-  std::string message;
-  int code = 1;
-  bool usage = false;
-};
 
-bool fail(Failure& f, const std::string& message, int code = 1) {
-  f.message = message;
-  f.code = code;
-  return false;
-}
-
-int report_failure(const Failure& f) {
-  std::fprintf(stderr, "edgefuse calibrate: %s\n%s", f.message.c_str(), f.usage ? kUsage : "");
-  return f.code;
-}
 
 // What the command line asks for.
 struct CalibrateOptions {
@@ -319,14 +303,14 @@ int cmd_calibrate(int argc, char** argv) {
   CalibrateOptions o;
   Failure f;
   SensorPair p;
-  if (!parse_options(argc, argv, o, f) || !open_pair(o, p, f)) return report_failure(f);
+  if (!parse_options(argc, argv, o, f) || !open_pair(o, p, f)) return report("edgefuse calibrate", f, kUsage);
   const std::string mode = o.args.get("mode", "pair");
-  if (mode != "pair" && mode != "maps") return report_failure(Failure{"--mode must be pair or maps, got '" + mode + "'", 2});
-  if (mode == "maps") return calibrate_maps(o, p, f) ? 0 : report_failure(f);
+  if (mode != "pair" && mode != "maps") return report("edgefuse calibrate", Failure{"--mode must be pair or maps, got '" + mode + "'", 2});
+  if (mode == "maps") return calibrate_maps(o, p, f) ? 0 : report("edgefuse calibrate", f, kUsage);
   PairCore pc;
   PairCalibrationRun run;
   if (!set_up_core(o, p, pc, f) || !calibrate_pair_frames(o, p, pc, run, f) || !write_result(o, p, run, f))
-    return report_failure(f);
+    return report("edgefuse calibrate", f, kUsage);
   return 0;
 }
 

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "failure.hpp"
 #include "args.hpp"
 #include "commands.hpp"
 #include "core_setup.hpp"
@@ -31,24 +32,7 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// A refusal: the message, the exit code (2: the command line, 1: the data) and whether the usage
-// follows it.
-struct Failure {
-  std::string message;
-  int code = 1;
-  bool usage = false;
-};
 
-bool fail(Failure& f, const std::string& message, int code = 1) {
-  f.message = message;
-  f.code = code;
-  return false;
-}
-
-int report(const Failure& f) {
-  std::fprintf(stderr, "edgefuse fuse: %s\n%s", f.message.c_str(), f.usage ? kUsage : "");
-  return f.code;
-}
 
 // What the command line asks for.
 struct FuseOptions {
@@ -221,7 +205,7 @@ int cmd_fuse(int argc, char** argv) {
   FuseTimes times;
   if (!parse_options(argc, argv, o, f) || !open_sequence(o, run, f) || !set_up_core(o, run, f) ||
       !fuse_frames(o, run, times, f) || !write_outputs(o, run, times, f))
-    return report(f);
+    return report("edgefuse fuse", f, kUsage);
   return 0;
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "failure.hpp"
 #include "args.hpp"
 #include "commands.hpp"
 #include "core_setup.hpp"
@@ -53,24 +54,7 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// A refusal: the message, the exit code (2: the command line, 1: the data, 3: a refused
-// calibration) and whether the usage follows it.
-struct Failure {
-  std::string message;
-  int code = 1;
-  bool usage = false;
-};
 
-bool fail(Failure& f, const std::string& message, int code = 1) {
-  f.message = message;
-  f.code = code;
-  return false;
-}
-
-int report(const Failure& f) {
-  std::fprintf(stderr, "edgefuse fuse: %s\n%s", f.message.c_str(), f.usage ? kUsage : "");
-  return f.code;
-}
 
 // What the command line asks for (--max-sigma is read once the sensors are bound, see apply_noise_rules).
 struct FuseRigOptions {
@@ -359,7 +343,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   if (!parse_options(argc, argv, o, f) || !open_sensors(o, rc, f) || !bind_sensors(rc, f) ||
       !apply_noise_rules(o, rc, f) || !place_volume(o, rc, f) || !mount_cameras(o, rc, f) ||
       !fuse_frames(o, rc, fuse_ms, f) || !write_outputs(o, rc, fuse_ms, f))
-    return report(f);
+    return report("edgefuse fuse", f, kUsage);
   return 0;
 }
 

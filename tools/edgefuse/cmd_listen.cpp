@@ -13,6 +13,7 @@
 #include <cstring>
 #include <string>
 
+#include "failure.hpp"
 #include "args.hpp"
 #include "commands.hpp"
 #include "edgefuse/hal/platform/serial_sockets/serial_port.hpp"
@@ -90,24 +91,7 @@ link::Message g_message;
 uint8_t g_buf[65536];
 
 
-// A refusal: the message, the exit code (2: the command line, 1: the link) and whether the usage
-// follows it.
-struct Failure {
-  std::string message;
-  int code = 1;
-  bool usage = false;
-};
 
-bool fail(Failure& f, const std::string& message, int code = 1) {
-  f.message = message;
-  f.code = code;
-  return false;
-}
-
-int report(const Failure& f) {
-  std::fprintf(stderr, "edgefuse listen: %s\n%s", f.message.c_str(), f.usage ? kUsage : "");
-  return f.code;
-}
 
 // What the command line asks for.
 struct ListenOptions {
@@ -252,7 +236,7 @@ int cmd_listen(int argc, char** argv) {
   ListenOptions o;
   Failure f;
   Source src;
-  if (!parse_options(argc, argv, o, f) || !open_source(o, src, f)) return report(f);
+  if (!parse_options(argc, argv, o, f) || !open_source(o, src, f)) return report("edgefuse listen", f, kUsage);
   Counts counts;
   int rc = listen_loop(o, src, counts);
   ::close(src.fd);

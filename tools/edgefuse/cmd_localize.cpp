@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 #include <vector>
 
+#include "failure.hpp"
 #include "args.hpp"
 #include "edgefuse/hal/platform/config/board_defaults.hpp"
 #include "commands.hpp"
@@ -78,17 +79,6 @@ bool ends_with(const std::string& s, const char* e) {
   return s.size() >= n && s.compare(s.size() - n, n, e) == 0;
 }
 
-// A refusal: the message and the exit code (2: the command line, 1: the data).
-struct Failure {
-  std::string message;
-  int code = 1;
-};
-
-bool fail(Failure& f, const std::string& message, int code = 1) {
-  f.message = message;
-  f.code = code;
-  return false;
-}
 
 // What the command line asks for.
 struct LocalizeOptions {
@@ -497,26 +487,22 @@ bool localize_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Failure
   return write_outputs(o, loc, sc, report.count, f);
 }
 
-int report(const Failure& f) {
-  std::fprintf(stderr, "edgefuse localize: %s\n", f.message.c_str());
-  return f.code;
-}
 
 }  // namespace
 
 int cmd_localize(int argc, char** argv) {
   LocalizeOptions o;
   Failure f;
-  if (!parse_options(argc, argv, o, f)) return report(f);
+  if (!parse_options(argc, argv, o, f)) return report("edgefuse localize", f);
   // Start-up: the static buffers and the models.
   const BoardCapacities& board = build_board();
   static Scene scene;  // the board's buffers are carved once, here
   if (carve_memory(board, static_arena(), static_arena_bytes(), scene.core.buffers) != Status::kOk)
-    return report(Failure{"the static arena does not hold board " + std::string(board.name) + "'s memory map", 1});
+    return report("edgefuse localize", Failure{"the static arena does not hold board " + std::string(board.name) + "'s memory map", 1});
   Localizer loc;
   if (loc.init(scene.core.buffers.localize) != Status::kOk)
-    return report(Failure{"localisation buffers missing in board " + std::string(board.name) + "'s memory map", 1});
-  if (!load_models(o, loc, f)) return report(f);
+    return report("edgefuse localize", Failure{"localisation buffers missing in board " + std::string(board.name) + "'s memory map", 1});
+  if (!load_models(o, loc, f)) return report("edgefuse localize", f);
   // Hypothesis refinement / verification run over --threads workers (same results for any count).
   WorkerPool loc_pool;
   loc_pool.start(o.fuse.threads);
@@ -524,7 +510,7 @@ int cmd_localize(int argc, char** argv) {
   const bool ok = o.args.has("sensors")  ? fuse_rig_scene(o, loc, scene, f)
                   : is_dir(o.input)      ? fuse_sequence_scene(o, loc, scene, f)
                                          : load_cloud_scene(o, loc, scene, f);
-  if (!ok || !localize_scene(o, loc, scene, f)) return report(f);
+  if (!ok || !localize_scene(o, loc, scene, f)) return report("edgefuse localize", f);
   return 0;
 }
 

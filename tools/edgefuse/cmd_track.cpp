@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "failure.hpp"
 #include "args.hpp"
 #include "commands.hpp"
 #include "core_setup.hpp"
@@ -79,24 +80,7 @@ class PhaseClock : public StepObserver {
   double cpu_[5] = {};
 };
 
-// A refusal: the message, the exit code (2: the command line, 1: the data) and whether the usage
-// follows it.
-struct Failure {
-  std::string message;
-  int code = 1;
-  bool usage = false;
-};
 
-bool fail(Failure& f, const std::string& message, int code = 1) {
-  f.message = message;
-  f.code = code;
-  return false;
-}
-
-int report(const Failure& f) {
-  std::fprintf(stderr, "edgefuse track: %s\n%s", f.message.c_str(), f.usage ? kUsage : "");
-  return f.code;
-}
 
 void print_frame(std::size_t i, std::size_t n, double stamp_s, const TrackResult& r, const PhaseClock& clock) {
   std::printf("frame %zu/%zu stamp %.6f: %-8s%s | filter %.2f raycast %.2f icp %.2f integrate %.2f ms", i + 1, n,
@@ -299,7 +283,7 @@ int cmd_track(int argc, char** argv) {
   TrackRun run;
   if (!parse_options(argc, argv, o, f) || !open_sequence(o, run, f) || !set_up_core(o, run, f) ||
       !track_frames(o, run, f) || !write_outputs(o, run, f))
-    return report(f);
+    return report("edgefuse track", f, kUsage);
   return 0;
 }
 
