@@ -21,30 +21,6 @@ using namespace edgefuse_test;
 
 namespace {
 
-// A closed box mesh, centred, counter-clockwise from outside.
-void box_mesh(const Vec3f& half, std::vector<Vec3f>& v, std::vector<std::array<uint32_t, 3>>& t) {
-  v.clear();
-  for (int i = 0; i < 8; ++i)
-    v.push_back(Vec3f((i & 1) ? half.x() : -half.x(), (i & 2) ? half.y() : -half.y(), (i & 4) ? half.z() : -half.z()));
-  t = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
-       {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
-}
-
-// Largest distance from a box corner at the estimate to the nearest true corner (symmetry-aware).
-float corner_error(const Vec3f& half, const Pose& est, const Pose& truth) {
-  float worst = 0;
-  for (int i = 0; i < 8; ++i) {
-    const Vec3f c((i & 1) ? half.x() : -half.x(), (i & 2) ? half.y() : -half.y(), (i & 4) ? half.z() : -half.z());
-    float best = 1e9f;
-    for (int j = 0; j < 8; ++j) {
-      const Vec3f d((j & 1) ? half.x() : -half.x(), (j & 2) ? half.y() : -half.y(), (j & 4) ? half.z() : -half.z());
-      best = std::min(best, (est * c - truth * d).norm());
-    }
-    worst = std::max(worst, best);
-  }
-  return worst;
-}
-
 const Vec3f kHalf(0.03f, 0.02f, 0.0125f);
 
 }  // namespace
