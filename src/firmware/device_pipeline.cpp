@@ -482,7 +482,7 @@ void DevicePipeline::process_reference(uint64_t now_us) {
   Pose known;
   const bool has_known = truth != nullptr && truth->pose_of(ref.held->sequence, known);
   // A tracked map starts at the pose the robot's flange and the calibrated hand-eye mounting give.
-  const bool starts = tracked() && (!mapper_.placed() || mapper_.map_frames() == 0);
+  const bool starts = tracked() && mapper_.starts_new_map();
   const Pose start = starts ? tracking_start_pose(ref.held->sequence) : Pose::identity();
   ReferenceStep step;
   const Status s = mapper_.map_reference(ref.slot, ref.held_frame(), has_known ? &known : nullptr, start, step);

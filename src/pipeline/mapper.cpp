@@ -101,7 +101,7 @@ Status Mapper::map_reference(CameraSlot& cam, const SensorFrame& in, const Pose*
 // new map starts at `start`; its first frame is pushed there without alignment.
 Status Mapper::track(CameraSlot& cam, const DepthFrame& f, const Pose& start, ReferenceStep& out,
                      StepObserver* observer) {
-  const bool first = centre_pending_ || map_frames_ == 0;
+  const bool first = starts_new_map();
   if (first) {
     const Status s = tracker_.start(start, params_.tracker, true);
     if (s != Status::kOk) return s;

@@ -76,6 +76,9 @@ class Mapper {
   void new_map_in_place();
   //! A map is placed (a reference frame centred it, or new_map_in_place()).
   bool placed() const { return !centre_pending_; }
+  //! The next reference frame starts the map (no map placed, or nothing integrated yet): with
+  //! tracked poses it is pushed at map_reference()'s `start` without alignment.
+  bool starts_new_map() const { return centre_pending_ || map_frames_ == 0; }
 
   //! One frame of the reference camera.
   //! \param cam its slot  \param frame the raw frame  \param known its pose when known (null: none)
