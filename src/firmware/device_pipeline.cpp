@@ -28,8 +28,6 @@ uint16_t g_filter_scratch[kPixels];
 constexpr std::size_t kCentreSamples = std::size_t(kBuildBoard.image_width_max / 2 + 1) *
                                        std::size_t(kBuildBoard.image_height_max / 2 + 1);
 float g_centre_xyz[3][kCentreSamples];
-// The line scanner's range noise (20 um, constant) for its trust against the cameras.
-constexpr float kScannerSigmaM = 20e-6f;
 
 Pose to_pose(const runtime::CalibPose& p) {
   return Pose::from_tq(p.tq[0], p.tq[1], p.tq[2], p.tq[3], p.tq[4], p.tq[5], p.tq[6]);
@@ -447,7 +445,7 @@ void DevicePipeline::process_profile(const hal::LineProfile& p) {
     ++scanner_.skipped;
     return;
   }
-  if (mapper_.map_profile(scanner_.model, scanner_.tables, p.ranges_m, T, kScannerSigmaM) != Status::kOk) {
+  if (mapper_.map_profile(scanner_.model, scanner_.tables, p.ranges_m, T, kLineScannerSigmaM) != Status::kOk) {
     ++pipeline_drops_;
     return;
   }

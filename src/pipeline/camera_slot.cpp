@@ -41,6 +41,7 @@ Status CameraSlot::bind(const CoreBuffers& b, const BoardCapacities& board, int 
   }
   noise = tof() ? NoiseModel::time_of_flight() : NoiseModel::structured_light();
   sigma = NoiseMean();
+  counts = MapCounts();
   return Status::kOk;
 }
 

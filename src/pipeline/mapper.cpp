@@ -38,28 +38,69 @@ void Mapper::new_map_in_place() {
 
 // Filters and weights one camera frame into `out` (the camera's filtered image and trust map).
 Status Mapper::prepare_frame(CameraSlot& cam, const SensorFrame& in, DepthFrame& out, bool* filtered) {
-  out = DepthFrame();
-  out.depth = in.depth;
-  if (params_.prefilter) {
-    const Status s = cam.filter(in, filter_spare_);
-    if (s != Status::kOk) return s;
-    out.depth = ImageView<const uint16_t>(cam.filtered.data, in.depth.width, in.depth.height);
-  }
-  if (filtered != nullptr) *filtered = true;
-  out.colour = in.colour;
-  if (!params_.noise_weights) return Status::kOk;
   float sigma_m = 0.0f;
-  const Status s = build_trust_map(cam.noise, 0.5f * volume_->voxel_m(), out.depth, cam.intr.depth_scale,
-                                   in.amplitude, cam.trust, 0.0f, &sigma_m);
-  if (s != Status::kOk) return s;
-  out.trust = cam.trust;
+  const Status s = weigh_frame(cam, in, out, sigma_m, filtered);
+  if (s != Status::kOk || !params_.noise_weights) return s;
   // The fusion rules (fusion_rules.hpp): the depth-jump limit follows the frame's median modelled
   // noise; the sub-unit fill is decided from the medians so far, this frame's included, so a
   // sub-unit camera's frames all take it.
   cam.sigma.add(sigma_m);
-  out.jump_m = noise_jump_m(sigma_m, kJumpSigmas);
+  if (params_.rules.jump_sigmas > 0.0f) {
+    out.jump_m = noise_jump_m(sigma_m, params_.rules.jump_sigmas);
+    cam.counts.jump_m_sum += out.jump_m;
+    ++cam.counts.jump_frames;
+  }
   out.sub_unit_fill_units = sub_unit_fill();
   return Status::kOk;
+}
+
+// The pre-filters and, with noise weights, the trust map and noise gate; sigma_m: the frame's median
+// modelled noise (of the pixels the gate keeps). Counts nothing.
+Status Mapper::weigh_frame(CameraSlot& cam, const SensorFrame& in, DepthFrame& out, float& sigma_m, bool* filtered) {
+  out = DepthFrame();
+  out.depth = in.depth;
+  const int w = in.depth.width, h = in.depth.height;
+  const bool gate = params_.noise_weights && params_.rules.noise_gate_m > 0.0f;
+  if (params_.prefilter) {
+    const Status s = cam.filter(in, filter_spare_);
+    if (s != Status::kOk) return s;
+    out.depth = ImageView<const uint16_t>(cam.filtered.data, w, h);
+  } else if (gate) {  // the gate drops pixels: a copy to drop them from
+    for (int i = 0; i < w * h; ++i) cam.filtered.data[i] = in.depth.data[i];
+    out.depth = ImageView<const uint16_t>(cam.filtered.data, w, h);
+  }
+  if (filtered != nullptr) *filtered = true;
+  out.colour = in.colour;
+  if (params_.rules.sub_unit_fill_units > 0) out.sub_unit_fill_units = params_.rules.sub_unit_fill_units;
+  sigma_m = 0.0f;
+  if (!params_.noise_weights) return Status::kOk;
+  const Status s = build_trust_map(cam.noise, 0.5f * volume_->voxel_m(), out.depth, cam.intr.depth_scale, in.amplitude,
+                                   cam.trust, params_.rules.noise_gate_m, &sigma_m);
+  if (s != Status::kOk) return s;
+  out.trust = cam.trust;
+  if (gate) apply_noise_gate(cam, out);
+  return Status::kOk;
+}
+
+// A pixel the gate refused (trust 0) carves no free space either: its depth is dropped.
+void Mapper::apply_noise_gate(CameraSlot& cam, const DepthFrame& f) {
+  uint16_t* depth = cam.filtered.data;
+  const int n = f.depth.width * f.depth.height;
+  for (int i = 0; i < n; ++i) {
+    if (depth[i] == 0) continue;
+    ++cam.counts.pixels;
+    if (f.trust.data[i] != 0) continue;
+    ++cam.counts.gated_pixels;
+    depth[i] = 0;
+  }
+}
+
+Status Mapper::measure_noise(CameraSlot& cam, const SensorFrame& frame, float& sigma_m) {
+  DepthFrame f;
+  const CameraSlot::MapCounts before = cam.counts;
+  const Status s = weigh_frame(cam, frame, f, sigma_m, nullptr);
+  cam.counts = before;
+  return s;
 }
 
 Status Mapper::map_reference(CameraSlot& cam, const SensorFrame& in, const Pose* known, const Pose& start,
@@ -87,12 +128,10 @@ Status Mapper::map_reference(CameraSlot& cam, const SensorFrame& in, const Pose*
   if (!out.track.push) return Status::kOk;
   if (centre_pending_) out.centred = centre_on(cam, f, out.T_world_cam);
   if (centre_pending_) return Status::kOk;  // nothing in range to place a new map on: not integrated
-  s = integrate_frame<real_t>(runners_.tsdf, *volume_, cam.intr, cam.ray_norms, f, out.T_world_cam, cam.scratch);
+  s = integrate_at(cam, f, out.T_world_cam);
   if (observer != nullptr) observer->phase_done(MapPhase::kIntegrate);
   if (s != Status::kOk) return s;
   out.integrated = true;
-  ++map_frames_;
-  view_sum_ += out.T_world_cam.t;
   last_capture_us_ = in.stamp_us;
   return Status::kOk;
 }
@@ -129,16 +168,24 @@ bool Mapper::centre_on(const CameraSlot& cam, const DepthFrame& f, const Pose& T
   return true;
 }
 
+Status Mapper::map_at(CameraSlot& cam, const SensorFrame& in, const Pose& T_world_cam) {
+  if (centre_pending_) return Status::kNotInitialised;
+  DepthFrame f;
+  const Status s = prepare_frame(cam, in, f, nullptr);
+  return s == Status::kOk ? integrate_at(cam, f, T_world_cam) : s;
+}
+
 Status Mapper::map_paired(CameraSlot& cam, const SensorFrame& in, const Pose& T_ref_cam) {
   if (centre_pending_ || !history_.has_pose()) return Status::kNotInitialised;
-  DepthFrame f;
-  Status s = prepare_frame(cam, in, f, nullptr);
-  if (s != Status::kOk) return s;
-  const Pose T = history_.pose_at(in.stamp_us) * T_ref_cam;
-  s = integrate_frame<real_t>(runners_.tsdf, *volume_, cam.intr, cam.ray_norms, f, T, cam.scratch);
+  return map_at(cam, in, history_.pose_at(in.stamp_us) * T_ref_cam);
+}
+
+// Integrates a prepared frame and counts it into the map.
+Status Mapper::integrate_at(CameraSlot& cam, const DepthFrame& f, const Pose& T_world_cam) {
+  const Status s = integrate_frame<real_t>(runners_.tsdf, *volume_, cam.intr, cam.ray_norms, f, T_world_cam, cam.scratch);
   if (s != Status::kOk) return s;
   ++map_frames_;
-  view_sum_ += T.t;
+  view_sum_ += T_world_cam.t;
   return Status::kOk;
 }
 
@@ -146,8 +193,10 @@ Status Mapper::map_profile(const LineScannerModel& model, const LineScannerTable
                            const float* ranges_m, const Pose& T_world_sensor, float sigma_m) {
   if (centre_pending_) return Status::kNotInitialised;
   // Not capped at one camera sample (kProfileTrustMax): a fine scanner must be able to outweigh an
-  // average of many coarser camera samples on its strip.
-  const float trust = NoiseModel::constant(sigma_m).trust(0.5f * volume_->voxel_m(), 0.0f, 0.0f, kProfileTrustMax);
+  // average of many coarser camera samples on its strip. Without noise weights every sample is a full one.
+  const float trust = params_.noise_weights
+                          ? NoiseModel::constant(sigma_m).trust(0.5f * volume_->voxel_m(), 0.0f, 0.0f, kProfileTrustMax)
+                          : 1.0f;
   return integrate_profile<real_t>(*volume_, model, tables, ranges_m, T_world_sensor, 0.0f, trust);
 }
 
@@ -156,6 +205,7 @@ void Mapper::fused_sigmas(float (&sigma)[kFusedMax]) const {
 }
 
 int Mapper::sub_unit_fill() const {
+  if (params_.rules.sub_unit_fill_units > 0) return params_.rules.sub_unit_fill_units;
   float sigma[kFusedMax];
   fused_sigmas(sigma);
   return default_sub_unit_fill(sigma, fused_count_, 0.5f * volume_->voxel_m());

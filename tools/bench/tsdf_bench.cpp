@@ -140,6 +140,7 @@ struct Bench {
   io::DepthSequence seq;
   std::size_t n = 0;  // frames fused
   CoreSetup core;
+  CameraSlot cam;  // the frames' sensor in slot 0
   std::vector<uint16_t> depth;
   std::vector<Rgb8> colour;
   PinholeIntrinsics cast_intr;  // the frames' own sensor, or a pyramid level's
@@ -156,15 +157,16 @@ bool set_up(BenchOptions& o, Bench& b, Failure& f) {
   CoreSetup& core = b.core;
   if (b.n == 0 || !core.init(build_board(), seq.intr, err) || !io::load_depth(seq.frames[0], seq.intr, b.depth, err) ||
       !centre_on_view(seq.intr, b.depth, seq.frames[0].T_world_cam, o.s, seq.frames[0].depth_path, err) ||
-      !core.make_volume(o.s, err))
+      !core.make_volume(o.s, err) ||
+      !core.bind_camera(b.cam, 0, seq.intr, DepthSensorKind::kStructuredLight, false,
+                        build_board().colour && !args.has("no-colour-map"), err))  // no colour map: as edgefuse track
     return fail(f, b.n == 0 ? "no frames" : err);
-  if (args.has("no-colour-map")) core.maps.colour = ImageView<Rgba8>();  // as edgefuse track
   if (o.cast_level > 0 && args.has("truth"))
     return fail(f, "--truth compares full-resolution casts only (not with --cast-level)", 2);
   // The raycasts' sensor and maps: the frames' own, or a pyramid level's (the same buffers).
   b.cast_intr = o.cast_level > 0 ? level_intrinsics(seq.intr, o.cast_level) : seq.intr;
   const int cw = b.cast_intr.width, ch = b.cast_intr.height;
-  b.cast_maps = core.buffers.raycast_maps(0, cw, ch, !core.maps.colour.empty());
+  b.cast_maps = core.buffers.raycast_maps(0, cw, ch, !b.cam.maps.colour.empty());
   b.cast_pixels = std::size_t(cw) * ch;
   return true;
 }
@@ -178,7 +180,6 @@ bool fuse_frames(const BenchOptions& o, Bench& b, FuseTimes& t, Failure& f) {
   const io::DepthSequence& seq = b.seq;
   CoreSetup& core = b.core;
   const bool use_colour = seq.colour_registered && core.volume.has_colour();
-  const int W = seq.intr.width, H = seq.intr.height;
   std::string err;
   for (std::size_t i = 0; i < b.n; ++i) {
     if (!io::load_depth(seq.frames[i], seq.intr, b.depth, err) ||
@@ -186,8 +187,7 @@ bool fuse_frames(const BenchOptions& o, Bench& b, FuseTimes& t, Failure& f) {
       return fail(f, err);
     const DepthFrame fr = core.stage_frame(b.depth, use_colour ? &b.colour : nullptr);
     double t0 = thread_cpu_ms();
-    integrate<real_t>(core.volume, seq.intr, ImageView<const real_t>(core.ray_norms.data, W, H), fr,
-                      seq.frames[i].T_world_cam, core.scratch);
+    integrate<real_t>(core.volume, seq.intr, b.cam.ray_norms, fr, seq.frames[i].T_world_cam, b.cam.scratch);
     t.integrate_ms += thread_cpu_ms() - t0;
     if (!o.cast) continue;
     t0 = thread_cpu_ms();

@@ -16,7 +16,7 @@
 #include "commands.hpp"
 #include "core_setup.hpp"
 #include "edgefuse/fusion/align_spaces.hpp"
-#include "edgefuse/tsdf/integrate.hpp"
+#include "rig_calibration.hpp"
 #include "rig_fusion.hpp"
 
 namespace edgefuse::cli {
@@ -84,7 +84,7 @@ bool parse_options(int argc, char** argv, CalibrateOptions& o, Failure& f) {
 // The rig set and its two pinhole sensors A (--from) and B (--to).
 struct SensorPair {
   io::RigSet set;
-  PinholeSlot a, b;
+  RigCamera a, b;
 };
 
 bool open_pair(CalibrateOptions& o, SensorPair& p, Failure& f) {
@@ -97,6 +97,8 @@ bool open_pair(CalibrateOptions& o, SensorPair& p, Failure& f) {
     if (s->kind != io::SensorKind::kPinhole)
       return fail(f, "--" + std::string(opt) + " " + args.get(opt) + ": only pinhole sensors can be calibrated as a pair", 2);
   }
+  p.a.slot = 0;
+  p.b.slot = 1;
   if (!io::open_depth_sequence(o.folder, args.get("from"), p.a.seq, err) ||
       !io::open_depth_sequence(o.folder, args.get("to"), p.b.seq, err))
     return fail(f, err);
@@ -133,17 +135,10 @@ bool store_result(const Args& args, const std::string& a, const std::string& b, 
   return true;
 }
 
-// --mode maps: two spaces carved from the board's one voxel storage, each filled by one sensor in
-// its own frame (its first pose), then aligned.
-bool calibrate_maps(const CalibrateOptions& o, SensorPair& p, Failure& f) {
-  const Args& args = o.args;
+// Two spaces share the board's voxel storage: the largest cube (a multiple of 8) of which two fit,
+// unless --volume; the voxel scaled to keep the board's extent, unless --voxel.
+bool maps_volume_settings(const Args& args, FuseSettings& settings, Failure& f) {
   const BoardCapacities& board = build_board();
-  FuseSettings settings = o.settings;
-  PinholeSlot& a = p.a;
-  PinholeSlot& b = p.b;
-  const int frames = o.frames;
-  const Pose& guess = o.guess;
-  std::string err;
   const uint64_t cap3 = uint64_t(board.volume_dim) * board.volume_dim * board.volume_dim;
   int dim = board.volume_dim;
   while (dim > 8 && 2 * uint64_t(dim) * dim * dim > cap3) dim -= 8;
@@ -153,54 +148,85 @@ bool calibrate_maps(const CalibrateOptions& o, SensorPair& p, Failure& f) {
   if (!args.has("voxel")) settings.voxel_m = settings.voxel_m * float(board.volume_dim) / float(dim);
   if (!args.has("trunc")) settings.trunc_m = 4.0f * settings.voxel_m;
   settings.dim = dim;
+  return true;
+}
+
+// The board's voxel storage as two spaces of dim^3 voxels (distance and weight, no colour).
+void split_voxel_storage(const VoxelStorage& all, int dim, VoxelStorage (&out)[2]) {
+  const std::size_t voxels = std::size_t(dim) * dim * dim, bricks = voxels / kBrickVoxels;
+  out[0] = out[1] = all;
+  for (VoxelStorage& s : out) {
+    s.colour = nullptr;
+    s.colour_weight = nullptr;
+    s.capacity_dim = dim;
+  }
+  out[1].tsdf += voxels;
+  out[1].weight += voxels;
+  out[1].brick_flags += bricks;
+  out[1].brick_list += bricks;
+  if (out[1].block_mask != nullptr) out[1].block_mask += bricks;
+}
+
+// One sensor maps alone into its own space (centred on its first view), through the pipeline's
+// Mapper at its recorded poses relative to its first one.
+bool map_alone(RigCamera& c, FuseSettings settings, const VoxelStorage& storage, TsdfVolume& space,
+               ImageView<uint16_t> spare, CoreSetup& core, int frames, Failure& f) {
+  std::string err;
+  if (!c.seq.frames[0].has_pose) return fail(f, c.seq.root + ": frames need poses (groundtruth.txt)");
+  const Pose T0_inv = c.seq.frames[0].T_world_cam.inverse();
+  if (!io::load_depth(c.seq.frames[0], c.seq.intr, c.load_depth, err)) return fail(f, err);
+  if (!centre_on_view(c.seq.intr, c.load_depth, Pose::identity(), settings, c.seq.frames[0].depth_path, err))
+    return fail(f, err);
+  const TsdfParams tp = TsdfParams::defaults_for(settings.voxel_m, settings.trunc_m);
+  if (space.init(storage, settings.dim, settings.origin_m, tp) != Status::kOk) return fail(f, "space init failed");
+  Mapper mapper;
+  if (mapper.init(space, KernelRunners(), spare, core.centre_scratch(c.seq.intr), MapperParams()) != Status::kOk)
+    return fail(f, "mapping refused");
+  mapper.new_map_in_place();
+  const std::size_t n = std::min<std::size_t>(std::size_t(frames), c.seq.frames.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!c.seq.frames[i].has_pose) continue;
+    SensorFrame frame;
+    if (!c.load(i, false, frame, err)) return fail(f, err);
+    const Status s = mapper.map_at(c.cam, frame, T0_inv * c.seq.frames[i].T_world_cam);
+    if (s != Status::kOk) return fail(f, c.seq.frames[i].depth_path + ": " + to_string(s));
+  }
+  return true;
+}
+
+// --mode maps: two spaces carved from the board's one voxel storage, each filled by one sensor in
+// its own frame (its first pose), then aligned.
+bool calibrate_maps(const CalibrateOptions& o, SensorPair& p, Failure& f) {
+  const Args& args = o.args;
+  const BoardCapacities& board = build_board();
+  FuseSettings settings = o.settings;
+  RigCamera& a = p.a;
+  RigCamera& b = p.b;
+  std::string err;
+  if (!maps_volume_settings(args, settings, f)) return false;
   CoreSetup core;
   if (!core.init(board, a.seq.intr, err)) return fail(f, err);
-  if (!a.bind(core.buffers, board, 0, err) || !b.bind(core.buffers, board, 1, err)) return fail(f, err);
-  a.filters.bilateral_enabled = false;
-  b.filters.bilateral_enabled = false;
+  if (!a.bind(core, true, err) || !b.bind(core, true, err)) return fail(f, err);
+  a.cam.filters.bilateral_enabled = false;
+  b.cam.filters.bilateral_enabled = false;
   const ImageView<uint16_t> spare(core.buffers.depth_frames + 2 * core.buffers.pixels_per_sensor,
                                   board.image_width_max, board.image_height_max);
-  const std::size_t voxels = std::size_t(dim) * dim * dim, bricks = voxels / kBrickVoxels;
-  VoxelStorage sa = core.buffers.voxels, sb = core.buffers.voxels;
-  sa.colour = sb.colour = nullptr;
-  sa.colour_weight = sb.colour_weight = nullptr;
-  sa.capacity_dim = sb.capacity_dim = dim;
-  sb.tsdf += voxels;
-  sb.weight += voxels;
-  sb.brick_flags += bricks;
-  sb.brick_list += bricks;
-  if (sb.block_mask != nullptr) sb.block_mask += bricks;
   TsdfVolume space[2];
-  PinholeSlot* cam[2] = {&a, &b};
-  for (int k = 0; k < 2; ++k) {
-    PinholeSlot& c = *cam[k];
-    if (!c.seq.frames[0].has_pose) return fail(f, c.seq.root + ": frames need poses (groundtruth.txt)");
-    const Pose T0_inv = c.seq.frames[0].T_world_cam.inverse();
-    if (!io::load_depth(c.seq.frames[0], c.seq.intr, c.load_depth, err)) return fail(f, err);
-    if (!centre_on_view(c.seq.intr, c.load_depth, Pose::identity(), settings, c.seq.frames[0].depth_path, err))
-      return fail(f, err);
-    TsdfParams tp = TsdfParams::defaults_for(settings.voxel_m, settings.trunc_m);
-    if (space[k].init(k == 0 ? sa : sb, dim, settings.origin_m, tp) != Status::kOk) return fail(f, "space init failed");
-    const std::size_t n = std::min<std::size_t>(std::size_t(frames), c.seq.frames.size());
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!c.seq.frames[i].has_pose) continue;
-      DepthFrame frame;
-      if (!c.stage(i, true, false, 0.0f, spare, frame, err)) return fail(f, err);
-      if (integrate<real_t>(space[k], c.seq.intr, c.ray_norms, frame, T0_inv * c.seq.frames[i].T_world_cam, c.scratch) !=
-          Status::kOk)
-        return fail(f, c.seq.frames[i].depth_path + ": integration failed");
-    }
-  }
+  VoxelStorage space_storage[2];
+  split_voxel_storage(core.buffers.voxels, settings.dim, space_storage);
+  RigCamera* cam[2] = {&a, &b};
+  for (int k = 0; k < 2; ++k)
+    if (!map_alone(*cam[k], settings, space_storage[k], space[k], spare, core, o.frames, f)) return false;
   std::printf("edgefuse calibrate --mode maps: A = %s, B = %s, each mapped alone (%d frames, poses relative to its "
               "first), two %d^3 spaces of %.4f m\n",
-              a.seq.sensor_name.c_str(), b.seq.sensor_name.c_str(), frames, dim, settings.voxel_m);
+              a.seq.sensor_name.c_str(), b.seq.sensor_name.c_str(), o.frames, settings.dim, settings.voxel_m);
   // View: A's first pose in A's map, with A's intrinsics; the other space's maps use slot 1's buffers.
   const PinholeIntrinsics& vi = a.seq.intr;
   const RaycastMaps om = core.buffers.raycast_maps(1, vi.width, vi.height, false);
   FramePyramid<real_t> pyramid;
   if (core.buffers.pyramid<real_t>(1, vi, pyramid) != Status::kOk) return fail(f, "pyramid does not fit");
   PairCalibrationResult r;
-  if (align_spaces<real_t>(space[0], space[1], vi, Pose::identity(), guess, pyramid, a.maps, om,
+  if (align_spaces<real_t>(space[0], space[1], vi, Pose::identity(), o.guess, pyramid, a.cam.maps, om,
                            ImageView<uint16_t>(spare.data, vi.width, vi.height), core.buffers.icp_workspace<real_t>(1),
                            PairCalibrationParams(), 3, r) != Status::kOk)
     return fail(f, "alignment failed");
@@ -222,20 +248,17 @@ bool calibrate_maps(const CalibrateOptions& o, SensorPair& p, Failure& f) {
 struct PairCore {
   CoreSetup core;
   ImageView<uint16_t> filter_scratch;
-  FramePyramid<real_t> pyramid;  // B's
 };
 
 bool set_up_core(CalibrateOptions& o, SensorPair& p, PairCore& pc, Failure& f) {
   const BoardCapacities& board = build_board();
-  PinholeSlot& a = p.a;
-  PinholeSlot& b = p.b;
+  RigCamera& a = p.a;
   CoreSetup& core = pc.core;
   std::string err;
   if (!core.init(board, a.seq.intr, err)) return fail(f, err);
-  if (!a.bind(core.buffers, board, 0, err) || !b.bind(core.buffers, board, 1, err)) return fail(f, err);
+  if (!a.bind(core, true, err) || !p.b.bind(core, true, err)) return fail(f, err);
   pc.filter_scratch = ImageView<uint16_t>(core.buffers.depth_frames + 2 * core.buffers.pixels_per_sensor,
                                           board.image_width_max, board.image_height_max);
-  if (core.buffers.pyramid<real_t>(1, b.seq.intr, pc.pyramid) != Status::kOk) return fail(f, "B's pyramid does not fit");
   if (!io::load_depth(a.seq.frames[0], a.seq.intr, a.load_depth, err)) return fail(f, err);
   if (!a.seq.frames[0].has_pose) return fail(f, a.seq.root + ": A's frames need poses (groundtruth.txt)");
   if (!centre_on_view(a.seq.intr, a.load_depth, a.seq.frames[0].T_world_cam, o.settings, a.seq.frames[0].depth_path,
@@ -248,23 +271,23 @@ bool set_up_core(CalibrateOptions& o, SensorPair& p, PairCore& pc, Failure& f) {
 // A fills the space (tracked or at its ground truth), B's frames at the same instants are registered to it.
 bool calibrate_pair_frames(const CalibrateOptions& o, SensorPair& p, PairCore& pc, PairCalibrationRun& run,
                            Failure& f) {
-  PinholeSlot& a = p.a;
-  PinholeSlot& b = p.b;
-  CoreSetup& core = pc.core;
+  RigCamera& a = p.a;
+  RigCamera& b = p.b;
   std::string err;
   std::printf("edgefuse calibrate: %s, A = %s (%dx%d), B = %s (%dx%d), %d frames, voxel %.4f m, guess %s\n",
               o.folder.c_str(), a.seq.sensor_name.c_str(), a.seq.intr.width, a.seq.intr.height,
               b.seq.sensor_name.c_str(), b.seq.intr.width, b.seq.intr.height, o.frames, o.settings.voxel_m,
               pose_line(o.guess).c_str());
-  PairCalibrationParams params;
-  FramePyramid<real_t> pyramid_a;
-  if (core.buffers.pyramid<real_t>(0, a.seq.intr, pyramid_a) != Status::kOk) return fail(f, "A's pyramid does not fit");
-  TrackingBuffers track{&pyramid_a, core.buffers.icp_workspace<real_t>(0)};
-  const bool tracked = o.poses == "tracked";
-  if (!run_pair_calibration(a, b, core.volume, pc.pyramid, core.buffers.icp_workspace<real_t>(1), pc.filter_scratch,
-                            o.frames, o.guess, params, run, err, true, tracked ? &track : nullptr))
-    return fail(f, err);
-  if (tracked)
+  PairCalibrationSetup setup;
+  setup.volume = &pc.core.volume;
+  setup.filter_scratch = pc.filter_scratch;
+  setup.centre = pc.core.centre_scratch(a.seq.intr);
+  setup.frames = o.frames;
+  setup.guess = o.guess;
+  setup.track_a = o.poses == "tracked";
+  setup.verbose = true;
+  if (!run_pair_calibration(a, b, setup, run, err)) return fail(f, err);
+  if (setup.track_a)
     std::printf("A tracked: %d of %d frames ok, largest distance from its ground truth %.2f mm\n", run.a_tracked_ok,
                 std::min(o.frames, int(a.seq.frames.size())), run.a_pose_error_mm);
   if (run.accepted == 0)

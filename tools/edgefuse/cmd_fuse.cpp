@@ -138,7 +138,7 @@ bool fuse_frame(FuseRun& run, std::size_t i, const PoolRunners& threads, CameraS
   times.raycast_ms += tr;
   if (i == 0 || (i + 1) % 10 == 0 || i + 1 == run.frame_count)
     std::printf("frame %zu/%zu stamp %.6f: integrate %.2f ms, raycast %.2f ms, %d%% of pixels hit the model\n", i + 1,
-                run.frame_count, fr.stamp_s, ti, tr, core.hit_percent(seq.intr));
+                run.frame_count, fr.stamp_s, ti, tr, CoreSetup::hit_percent(cam.maps));
   return true;
 }
 

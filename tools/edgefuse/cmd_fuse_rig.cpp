@@ -18,7 +18,7 @@
 #include "edgefuse/io/mesh_collector.hpp"
 #include "edgefuse/tsdf/colour_pass.hpp"
 #include "edgefuse/tsdf/extract.hpp"
-#include "edgefuse/tsdf/integrate_profile.hpp"
+#include "rig_calibration.hpp"
 #include "rig_fusion.hpp"
 
 namespace edgefuse::cli {
@@ -56,18 +56,43 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 
 
 
-// What the command line asks for (--max-sigma is read once the sensors are bound, see apply_noise_rules).
+// What the command line asks for.
 struct FuseRigOptions {
   Args args;
   std::string folder;
   FuseSettings settings;
   int frames_max = 0;
   Pose guess;
-  bool use_trust = true, paint = true, filter = true;
-  float sigma_ref = 0.0f;  // the trust reference
+  bool paint = true;
+  MapperParams mapping;  // known poses; filters, noise weights and the fusion rules from the options
   int min_weight = 0;
   LaserPushOptions laser;
 };
+
+// The mapping the options ask for: every camera's pre-filters (--no-filter: none) and noise weights
+// (--no-trust: equal weights) with the fusion rules (fusion_rules.hpp, shared with edgefused), all
+// of which need the noise models:
+// - the depth-jump limit follows the frame's noise: with the truncation as the limit, the ToF's
+//   noise (of the order of the truncation) reads as depth edges, and only the samples whose noise
+//   cancels the slope reach a voxel;
+// - a zero crossing needs both voxels to hold half a full sample (support rule): one to three
+//   ToF samples make crossings that are noise, inside the walls and under the floor;
+// - in a set mixing a sub-unit camera with a better one, the sub-unit samples fill a voxel only
+//   up to 3 units (decided before the push from each camera's first frame), so surface only the
+//   ToF saw never passes the support rule; the support rule then follows the set (after the
+//   push, from each camera's median noise).
+// Noise gate (--max-sigma, off by default): a pixel noisier than M is not integrated. M = trunc/2
+// is the noise the truncated space can hold (+-2 sigma inside +-trunc; beyond, the clipping biases
+// the average and the noise leaves zero crossings in the band) - but on bin_rig_a at 2 mm voxels it
+// drops every ToF pixel, so by default every sensor's data is fused (where only the ToF sees, its
+// accuracy is what there is) and the gate is the user's choice.
+bool mapping_options(const Args& args, MapperParams& mp, std::string& err) {
+  mp.poses = PoseMode::kKnown;
+  mp.prefilter = !args.has("no-filter");
+  mp.noise_weights = !args.has("no-trust");
+  if (!args.get_float("max-sigma", 0.0f, 1.0f, mp.rules.noise_gate_m, err)) return false;
+  return true;
+}
 
 bool parse_options(int argc, char** argv, FuseRigOptions& o, Failure& f) {
   Args& args = o.args;
@@ -84,12 +109,9 @@ bool parse_options(int argc, char** argv, FuseRigOptions& o, Failure& f) {
   if (!apply_fuse_options(args, o.settings, o.frames_max, err) ||
       (args.has("guess") && !parse_guess(args.get("guess"), o.guess, err)))
     return fail(f, err, 2);
-  o.use_trust = !args.has("no-trust");
   o.paint = !args.has("no-paint");
-  o.filter = !args.has("no-filter");
-  // Trust reference: a sample with half a voxel of noise weighs one full sample.
-  o.sigma_ref = o.use_trust ? 0.5f * o.settings.voxel_m : 0.0f;
-  if (!args.get_int("min-weight", 0, 255, o.min_weight, err)) return fail(f, err, 2);
+  if (!mapping_options(args, o.mapping, err) || !args.get_int("min-weight", 0, 255, o.min_weight, err))
+    return fail(f, err, 2);
   o.laser.register_patches = args.has("register-laser");
   o.laser.verbose = true;
   o.folder = args.positional()[0];
@@ -102,9 +124,8 @@ struct RigCore {
   RigSensors rs;
   CoreSetup core;
   ImageView<uint16_t> filter_scratch;
-  std::vector<Pose> mount;    // mounting of each camera on the reference (where mounted)
-  std::vector<char> mounted;  // 1: placed by mount[i] times the reference's pose
-  int sub_unit_fill = kWeightUnitsPerSample;
+  RigMounting mounting;
+  Mapper mapper;
 };
 
 bool open_sensors(const FuseRigOptions& o, RigCore& rc, Failure& f) {
@@ -116,6 +137,10 @@ bool open_sensors(const FuseRigOptions& o, RigCore& rc, Failure& f) {
   return true;
 }
 
+// The core's buffers and every camera bound to its slot. ToF frames are not bilateral-smoothed
+// before fusion: with the ToF's noise (6.7 mm median) its range sigma mixes the floor with the tops
+// of the objects on it, which lifts the fused floor by 1.85 mm on bin_rig_a; the TSDF's own average
+// denoises in 3-D without crossing edges.
 bool bind_sensors(RigCore& rc, Failure& f) {
   const BoardCapacities& board = build_board();
   std::string err;
@@ -124,39 +149,7 @@ bool bind_sensors(RigCore& rc, Failure& f) {
   init_intr.fx = init_intr.fy = 8;
   const int ref = rc.rs.ref;
   if (!rc.core.init(board, ref >= 0 ? rc.rs.cams[std::size_t(ref)].seq.intr : init_intr, err)) return fail(f, err);
-  if (!bind_rig_sensors(rc.rs, rc.core, board, rc.filter_scratch, err)) return fail(f, err);
-  return true;
-}
-
-bool apply_noise_rules(const FuseRigOptions& o, RigCore& rc, Failure& f) {
-  std::vector<PinholeSlot>& cams = rc.rs.cams;
-  // ToF frames are not bilateral-smoothed before fusion: with the ToF's noise (6.7 mm median) its
-  // range sigma mixes the floor with the tops of the objects on it, which lifts the fused floor by
-  // 1.85 mm on bin_rig_a; the TSDF's own average denoises in 3-D without crossing edges.
-  for (PinholeSlot& c : cams)
-    if (c.tof) c.filters.bilateral_enabled = false;
-  // Noise gate (off by default): a pixel noisier than M is not integrated. M = trunc/2 is the
-  // noise the truncated space can hold (+-2 sigma inside +-trunc; beyond, the clipping biases the
-  // average and the noise leaves zero crossings in the band) - but on bin_rig_a at 2 mm voxels it
-  // drops every ToF pixel, so by default every sensor's data is fused (where only the ToF sees,
-  // its accuracy is what there is) and the gate is the user's choice.
-  std::string err;
-  float max_sigma = 0.0f;
-  if (!o.args.get_float("max-sigma", 0.0f, 1.0f, max_sigma, err)) return fail(f, err, 2);
-  if (o.use_trust)
-    for (PinholeSlot& c : cams) c.sigma_max_m = max_sigma;
-  // The noise rules (fusion_rules.hpp, shared with edgefused), all of which need the noise models
-  // (with --no-trust every sample is a full one):
-  // - the depth-jump limit follows the frame's noise: with the truncation as the limit, the ToF's
-  //   noise (of the order of the truncation) reads as depth edges, and only the samples whose noise
-  //   cancels the slope reach a voxel;
-  // - a zero crossing needs both voxels to hold half a full sample (support rule): one to three
-  //   ToF samples make crossings that are noise, inside the walls and under the floor;
-  // - in a set mixing a sub-unit camera with a better one, the sub-unit samples fill a voxel only
-  //   up to 3 units (decided before the push from each camera's first frame), so surface only the
-  //   ToF saw never passes the support rule; the support rule then follows the set (after the
-  //   push, from each camera's median noise).
-  for (PinholeSlot& c : cams) c.jump_sigmas = o.use_trust ? kJumpSigmas : 0.0f;
+  if (!bind_rig_sensors(rc.rs, rc.core, false, rc.filter_scratch, err)) return fail(f, err);
   return true;
 }
 
@@ -170,7 +163,7 @@ bool place_volume(FuseRigOptions& o, RigCore& rc, Failure& f) {
   std::printf("edgefuse fuse: %s, sensors %s, volume %d^3 x %.4f m at %.4f,%.4f,%.4f, trunc %.4f m, trust %s, %s "
               "kernels\n",
               o.folder.c_str(), o.args.get("sensors").c_str(), settings.dim, settings.voxel_m, org.x(), org.y(),
-              org.z(), settings.trunc_m, o.use_trust ? "noise models" : "off",
+              org.z(), settings.trunc_m, o.mapping.noise_weights ? "noise models" : "off",
               kFixedPointBuild ? "fixed-point" : "float");
   return true;
 }
@@ -178,27 +171,22 @@ bool place_volume(FuseRigOptions& o, RigCore& rc, Failure& f) {
 // --extrinsics calibrated: camera i's mounting found by calibration (as `edgefuse calibrate --frames 20`,
 // reference tracked, from --guess); the space is cleared after.
 bool calibrate_mounting(const FuseRigOptions& o, RigCore& rc, std::size_t i, Failure& f) {
-  std::vector<PinholeSlot>& cams = rc.rs.cams;
-  CoreSetup& core = rc.core;
-  const PinholeSlot& r = cams[std::size_t(rc.rs.ref)];
+  std::vector<RigCamera>& cams = rc.rs.cams;
+  RigCamera& r = cams[std::size_t(rc.rs.ref)];
   std::string err;
-  FramePyramid<real_t> pyramid;
-  if (core.buffers.pyramid<real_t>(cams[i].slot, cams[i].seq.intr, pyramid) != Status::kOk)
-    return fail(f, "pyramid does not fit");
+  PairCalibrationSetup setup;
+  setup.volume = &rc.core.volume;
+  setup.filter_scratch = rc.filter_scratch;
+  setup.centre = rc.core.centre_scratch(r.seq.intr);
+  setup.frames = std::min(o.frames_max, 20);
+  setup.guess = o.guess;
   PairCalibrationRun run;
   std::printf("calibrating T_%s_%s ...\n", r.seq.sensor_name.c_str(), cams[i].seq.sensor_name.c_str());
-  FramePyramid<real_t> pyramid_ref;
-  if (core.buffers.pyramid<real_t>(r.slot, r.seq.intr, pyramid_ref) != Status::kOk)
-    return fail(f, "pyramid does not fit");
-  TrackingBuffers track{&pyramid_ref, core.buffers.icp_workspace<real_t>(r.slot)};
-  if (!run_pair_calibration(cams[std::size_t(rc.rs.ref)], cams[i], core.volume, pyramid,
-                            core.buffers.icp_workspace<real_t>(cams[i].slot), rc.filter_scratch,
-                            std::min(o.frames_max, 20), o.guess, PairCalibrationParams(), run, err, false, &track))
-    return fail(f, err);
-  core.volume.clear();
+  if (!run_pair_calibration(r, cams[i], setup, run, err)) return fail(f, err);
+  rc.core.volume.clear();
   if (run.accepted == 0)
     return fail(f, "calibration of " + cams[i].seq.sensor_name + " refused: " + run.first_reason, 3);
-  rc.mount[i] = run.T_a_b;
+  rc.mounting.T_ref_cam[i] = run.T_a_b;
   std::printf("T_%s_%s = %s (%d frames)\n", r.seq.sensor_name.c_str(), cams[i].seq.sensor_name.c_str(),
               pose_line(run.T_a_b).c_str(), run.accepted);
   return true;
@@ -207,12 +195,12 @@ bool calibrate_mounting(const FuseRigOptions& o, RigCore& rc, std::size_t i, Fai
 // --extrinsics FILE: camera i's mounting read from an extrinsics.txt file (the last matching line).
 bool read_mounting(const std::string& extr, const std::vector<io::SensorExtrinsic>& file, RigCore& rc, std::size_t i,
                    Failure& f) {
-  const PinholeSlot& r = rc.rs.cams[std::size_t(rc.rs.ref)];
-  const PinholeSlot& c = rc.rs.cams[i];
+  const RigCamera& r = rc.rs.cams[std::size_t(rc.rs.ref)];
+  const RigCamera& c = rc.rs.cams[i];
   bool found = false;
   for (const io::SensorExtrinsic& e : file)
     if (e.sensor_a == r.seq.sensor_name && e.sensor_b == c.seq.sensor_name) {
-      rc.mount[i] = e.T_a_b;
+      rc.mounting.T_ref_cam[i] = e.T_a_b;
       found = true;
     }
   if (!found) return fail(f, extr + " has no line '" + r.seq.sensor_name + " " + c.seq.sensor_name + " ...'");
@@ -223,8 +211,8 @@ bool read_mounting(const std::string& extr, const std::vector<io::SensorExtrinsi
 bool mount_cameras(const FuseRigOptions& o, RigCore& rc, Failure& f) {
   const std::size_t cams = rc.rs.cams.size();
   const std::string extr = o.args.get("extrinsics", "true");
-  rc.mount.assign(cams, Pose());
-  rc.mounted.assign(cams, 0);
+  rc.mounting.T_ref_cam.assign(cams, Pose());
+  rc.mounting.mounted.assign(cams, 0);
   if (extr == "true") return true;
   if (rc.rs.ref < 0) return fail(f, "--extrinsics " + extr + " needs a pinhole reference camera", 2);
   std::string err;
@@ -233,43 +221,47 @@ bool mount_cameras(const FuseRigOptions& o, RigCore& rc, Failure& f) {
   for (std::size_t i = 0; i < cams; ++i) {
     if (int(i) == rc.rs.ref) continue;
     if (!(extr == "calibrated" ? calibrate_mounting(o, rc, i, f) : read_mounting(extr, file, rc, i, f))) return false;
-    rc.mounted[i] = 1;
+    rc.mounting.mounted[i] = 1;
   }
   return true;
 }
 
 // The reference camera's colour painted onto all the geometry it saw.
 bool paint_reference_colour(const FuseRigOptions& o, RigCore& rc, Failure& f) {
-  PinholeSlot& cam = rc.rs.cams[std::size_t(rc.rs.ref)];
+  RigCamera& rig_cam = rc.rs.cams[std::size_t(rc.rs.ref)];
+  CameraSlot& cam = rig_cam.cam;
+  const io::DepthSequence& seq = rig_cam.seq;
   std::string err;
-  const std::size_t n = std::min<std::size_t>(cam.seq.frames.size(), std::size_t(o.frames_max));
+  const std::size_t n = std::min<std::size_t>(seq.frames.size(), std::size_t(o.frames_max));
   for (std::size_t i = 0; i < n; ++i) {
-    const io::FrameRef& fr = cam.seq.frames[i];
+    const io::FrameRef& fr = seq.frames[i];
     if (fr.colour_path.empty() || !fr.has_pose) continue;
-    if (!io::load_colour(fr, cam.seq.intr, cam.load_colour, err)) return fail(f, err);
-    std::copy(cam.load_colour.begin(), cam.load_colour.end(), cam.colour.data);
-    const Status s = paint_colour<real_t>(rc.core.volume, cam.seq.intr, cam.ray_norms, cam.colour, fr.T_world_cam,
-                                          cam.maps, cam.scratch, cam.depth);
+    if (!io::load_colour(fr, seq.intr, rig_cam.load_colour, err)) return fail(f, err);
+    const ImageView<const Rgb8> colour(rig_cam.load_colour.data(), seq.intr.width, seq.intr.height);
+    const Status s = paint_colour<real_t>(rc.core.volume, seq.intr, cam.ray_norms, colour, fr.T_world_cam, cam.maps,
+                                          cam.scratch, cam.filtered);
     if (s != Status::kOk) return fail(f, fr.colour_path + ": paint pass: " + to_string(s));
   }
-  std::printf("%s: colour painted onto the fused surface from %zu frames\n", cam.seq.sensor_name.c_str(), n);
+  std::printf("%s: colour painted onto the fused surface from %zu frames\n", seq.sensor_name.c_str(), n);
   return true;
 }
 
-// Every sensor's frames into the space, then the colour; fuse_ms: the time both took.
+// Every sensor's frames into the space through the pipeline's Mapper, then the colour; fuse_ms:
+// the time both took.
 bool fuse_frames(const FuseRigOptions& o, RigCore& rc, double& fuse_ms, Failure& f) {
   std::string err;
-  if (o.use_trust) {
-    if (!plan_sub_unit_fill(rc.rs, o.filter, o.sigma_ref, rc.filter_scratch, rc.sub_unit_fill, err))
-      return fail(f, err);
-    std::printf("sub-unit fill: samples below half a unit fill a voxel up to %d weight units (%s)\n", rc.sub_unit_fill,
-                rc.sub_unit_fill == kSubUnitFillUnits ? "mixed set" : "one sample");
-  }
   PoolRunners threads;
   threads.start(o.settings.threads);
+  Mapper& mapper = rc.mapper;
+  if (!start_rig_mapper(rc.rs, rc.core, threads.runners(), rc.filter_scratch, o.mapping, mapper, err)) return fail(f, err);
+  if (o.mapping.noise_weights) {
+    int fill = 0;
+    if (!plan_sub_unit_fill(rc.rs, mapper, fill, err)) return fail(f, err);
+    std::printf("sub-unit fill: samples below half a unit fill a voxel up to %d weight units (%s)\n", fill,
+                fill == kSubUnitFillUnits ? "mixed set" : "one sample");
+  }
   const auto t_start = std::chrono::steady_clock::now();
-  if (!push_rig_frames(rc.rs, rc.core, threads.runners().tsdf, rc.mount, rc.mounted, std::size_t(o.frames_max),
-                       o.filter, true, o.sigma_ref, rc.filter_scratch, err, true, o.laser))
+  if (!push_rig_frames(rc.rs, mapper, rc.core, rc.mounting, std::size_t(o.frames_max), true, err, true, o.laser))
     return fail(f, err);
   const int ref = rc.rs.ref;
   if (o.paint && ref >= 0 && rc.rs.cams[std::size_t(ref)].seq.colour_registered && rc.core.volume.has_colour() &&
@@ -303,10 +295,8 @@ void keep_confident(const TsdfVolume& volume, int min_weight, io::PointCloud& cl
 bool write_outputs(const FuseRigOptions& o, RigCore& rc, double fuse_ms, Failure& f) {
   CoreSetup& core = rc.core;
   std::string err;
-  int min_support = 0;
-  if (o.use_trust) {
-    const std::vector<float> sigma = median_sigmas(rc.rs.cams);
-    min_support = default_support_weight(sigma.data(), int(sigma.size()), o.sigma_ref, rc.sub_unit_fill);
+  const int min_support = rc.mapper.support_weight();
+  if (o.mapping.noise_weights) {
     std::printf("support rule: both voxels of a crossing hold >= %d weight units%s\n", min_support,
                 min_support == kEvidenceSupportWeight ? " (evidence rule: mixed sub-unit camera)" : "");
   }
@@ -341,7 +331,7 @@ int cmd_fuse_rig(int argc, char** argv) {
   RigCore rc;
   double fuse_ms = 0;
   if (!parse_options(argc, argv, o, f) || !open_sensors(o, rc, f) || !bind_sensors(rc, f) ||
-      !apply_noise_rules(o, rc, f) || !place_volume(o, rc, f) || !mount_cameras(o, rc, f) ||
+      !place_volume(o, rc, f) || !mount_cameras(o, rc, f) ||
       !fuse_frames(o, rc, fuse_ms, f) || !write_outputs(o, rc, fuse_ms, f))
     return report("edgefuse fuse", f, kUsage);
   return 0;

@@ -227,23 +227,31 @@ bool fuse_rig_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Failure
     return fail(f, err, usage ? 2 : 1);
   if (rs.ref < 0) return fail(f, "--sensors needs at least one pinhole camera (the viewpoint)", 2);
   // The cloud localised in keeps every fused crossing: the fusion rules of `fuse --sensors`
-  // (per-frame jump limit, the set's support rule) were measured not to localise better on bin_rig_a
-  // (3/6 objects either way, more false poses with the support rule), so localisation fuses without them.
+  // (per-frame jump limit, sub-unit fill, the set's support rule) were measured not to localise
+  // better on bin_rig_a (3/6 objects either way, more false poses with the support rule), so
+  // localisation maps with the noise weights alone.
   int min_weight = 0;
   if (!args.get_int("min-weight", 0, 255, min_weight, err)) return fail(f, err, 2);
   FuseSettings fs = o.fuse;
   CoreSetup& core = sc.core;
   ImageView<uint16_t> filter_scratch;
   if (!core.init(board, rs.cams[std::size_t(rs.ref)].seq.intr, err) ||
-      !bind_rig_sensors(rs, core, board, filter_scratch, err) || !place_rig_volume(rs, fs, err) ||
+      !bind_rig_sensors(rs, core, true, filter_scratch, err) || !place_rig_volume(rs, fs, err) ||
       !core.make_volume(fs, err))
     return fail(f, o.input + ": " + err);
-  const std::vector<Pose> mount(rs.cams.size());
-  const std::vector<char> mounted(rs.cams.size(), 0);
+  RigMounting own_poses;
+  own_poses.T_ref_cam.assign(rs.cams.size(), Pose());
+  own_poses.mounted.assign(rs.cams.size(), 0);
+  MapperParams mp;
+  mp.prefilter = !args.has("no-filter");
+  mp.noise_weights = !args.has("no-trust");
+  mp.rules.jump_sigmas = 0.0f;
+  mp.rules.sub_unit_fill_units = kWeightUnitsPerSample;
   PoolRunners threads;
   threads.start(fs.threads);
-  if (!push_rig_frames(rs, core, threads.runners().tsdf, mount, mounted, std::size_t(o.frames_max), !args.has("no-filter"),
-                       false, args.has("no-trust") ? 0.0f : 0.5f * fs.voxel_m, filter_scratch, err, true))
+  Mapper mapper;
+  if (!start_rig_mapper(rs, core, threads.runners(), filter_scratch, mp, mapper, err) ||
+      !push_rig_frames(rs, mapper, core, own_poses, std::size_t(o.frames_max), false, err, true))
     return fail(f, err);
   threads.pool.stop();
   const io::DepthSequence& rseq = rs.cams[std::size_t(rs.ref)].seq;

@@ -23,15 +23,12 @@ bool CoreSetup::init(const BoardCapacities& board, const PinholeIntrinsics& intr
           "'s largest image " + std::to_string(board.image_width_max) + "x" + std::to_string(board.image_height_max);
     return false;
   }
-  const int w = intr.width, h = intr.height;
-  maps = buffers.raycast_maps(0, w, h, board.colour);
-  scratch = buffers.scratch(0);
-  static_assert(sizeof(real_t) == sizeof(float), "the ray-norm region holds 4-byte scalars");
-  ray_norms = ImageView<real_t>(reinterpret_cast<real_t*>(buffers.ray_norms), w, h);
-  if (build_ray_norms<real_t>(intr, ray_norms) != Status::kOk) {
+  if (intr.validate() != Status::kOk) {
     err = "bad intrinsics";
     return false;
   }
+  frame_width = intr.width;
+  frame_height = intr.height;
   return true;
 }
 
@@ -47,7 +44,7 @@ bool CoreSetup::make_volume(const FuseSettings& s, std::string& err) {
 }
 
 DepthFrame CoreSetup::stage_frame(const std::vector<uint16_t>& depth, const std::vector<Rgb8>* colour) {
-  const int w = maps.depth_m.width, h = maps.depth_m.height;
+  const int w = frame_width, h = frame_height;
   std::copy(depth.begin(), depth.end(), buffers.depth_frames);
   DepthFrame f;
   f.depth = ImageView<const uint16_t>(buffers.depth_frames, w, h);
@@ -83,11 +80,12 @@ ViewCentreScratch CoreSetup::centre_scratch(const PinholeIntrinsics& intr) {
   return s;
 }
 
-int CoreSetup::hit_percent(const PinholeIntrinsics& intr) const {
+int CoreSetup::hit_percent(const RaycastMaps& maps) {
+  const int w = maps.depth_m.width, h = maps.depth_m.height;
   std::size_t hits = 0;
-  for (int v = 0; v < intr.height; ++v)
-    for (int u = 0; u < intr.width; ++u) hits += maps.depth_m.at(u, v) > 0.0f;
-  return int(100 * hits / (std::size_t(intr.width) * intr.height));
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) hits += maps.depth_m.at(u, v) > 0.0f;
+  return int(100 * hits / (std::size_t(w) * h));
 }
 
 Status CoreSetup::extract_cloud(io::PointCloud& cloud, uint8_t min_weight, bool with_support) const {

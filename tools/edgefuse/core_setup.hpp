@@ -32,9 +32,7 @@ struct FuseSettings {
 struct CoreSetup {
   CoreBuffers buffers;
   TsdfVolume volume;
-  RaycastMaps maps;          //!< for the sensor given to init()
-  FrameScratch scratch;      //!< tiles of that sensor
-  ImageView<real_t> ray_norms;  //!< |ray| per pixel of that sensor
+  int frame_width = 0, frame_height = 0;  //!< the image size given to init() (stage_frame())
   std::vector<float> centre_xyz;  //!< centre_scratch()'s arrays
 
   //! Carves the arena and checks the sensor against the board's capacity.
@@ -53,8 +51,9 @@ struct CoreSetup {
   ImageView<uint16_t> spare_image(int width, int height) const;
   //! Scratch for centring a map on a view of `intr`'s size (start-up: allocates once).
   ViewCentreScratch centre_scratch(const PinholeIntrinsics& intr);
-  //! Share of pixels the last raycast hit, in percent.
-  int hit_percent(const PinholeIntrinsics& intr) const;
+  //! Share of pixels a raycast hit, in percent.
+  //! \param maps the raycast's maps
+  static int hit_percent(const RaycastMaps& maps);
   //! The zero-crossing cloud into the static point buffer, then into `cloud`.
   //! \param cloud output  \param min_weight extract_points' support rule (0: every observed pair)
   //! \param with_support fill cloud.support (each point's evidence, SurfacePoint::support)

@@ -7,12 +7,12 @@
 #include "edgefuse/math/real.hpp"
 #include "edgefuse/core/status.hpp"
 #include "edgefuse/sensor/line_scanner.hpp"
-#include "edgefuse/tsdf/integrate_profile.hpp"
 
 namespace edgefuse::cli {
 
-bool push_line_scan(TsdfVolume& volume, const io::LineScan& scan, void* tan_table, int tan_capacity, float trust,
+bool push_line_scan(Mapper& mapper, const io::LineScan& scan, void* tan_table, int tan_capacity,
                     const LaserPushOptions& options, LaserPushStats& stats, std::string& err) {
+  const TsdfVolume& volume = mapper.volume();
   stats = LaserPushStats{};
   LineScannerModel model;
   model.beams = scan.sensor.line.beams;
@@ -78,7 +78,7 @@ bool push_line_scan(TsdfVolume& volume, const io::LineScan& scan, void* tan_tabl
     }
     if (stats.profiles == 0) stats.first_pose_used = poses[0];
     for (std::size_t k = 0; k < count; ++k) {
-      const Status s = integrate_profile<real_t>(volume, model, tables, scan.profiles.profile(p0 + k), poses[k], 0.0f, trust);
+      const Status s = mapper.map_profile(model, tables, scan.profiles.profile(p0 + k), poses[k], kLineScannerSigmaM);
       if (s != Status::kOk) {
         err = scan.sensor.name + ": profile " + std::to_string(p0 + k) + ": " + to_string(s);
         return false;

@@ -10,8 +10,8 @@
 
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/math/pose.hpp"
+#include "edgefuse/pipeline/mapper.hpp"
 #include "edgefuse/tsdf/register_profiles.hpp"
-#include "edgefuse/tsdf/volume.hpp"
 
 namespace edgefuse::cli {
 
@@ -45,13 +45,13 @@ struct LaserPushStats {
   Pose first_pose_used;    //!< the first profile's pose as integrated (offset and correction applied)
 };
 
-//! Pushes the profiles of `scan` (at its recorded poses, registered per patch when asked) into the
-//! volume.
-//! \param volume the space (cameras already pushed)  \param scan the line scanner's data
+//! Maps the profiles of `scan` (at its recorded poses, registered per patch when asked) through the
+//! mapper (Mapper::map_profile, the scanner's trust from kLineScannerSigmaM).
+//! \param mapper the mapper (cameras already pushed)  \param scan the line scanner's data
 //! \param tan_table storage for the scanner's tan table (scan.sensor.line.beams real_t values)
-//! \param tan_capacity its capacity in values  \param trust the scanner's trust factor (0, 1]
-//! \param options registration  \param stats what happened  \param err error text
-bool push_line_scan(TsdfVolume& volume, const io::LineScan& scan, void* tan_table, int tan_capacity, float trust,
+//! \param tan_capacity its capacity in values  \param options registration  \param stats what happened
+//! \param err error text
+bool push_line_scan(Mapper& mapper, const io::LineScan& scan, void* tan_table, int tan_capacity,
                     const LaserPushOptions& options, LaserPushStats& stats, std::string& err);
 
 }  // namespace edgefuse::cli

@@ -38,6 +38,13 @@ struct CameraSlot {
   DepthFilterChain<real_t> filters;
   NoiseModel noise;
   NoiseMean sigma;                //!< median modelled noise of the frames fused with a trust map
+  //! What mapping counted for this camera's frames (reports).
+  struct MapCounts {
+    uint64_t pixels = 0;        //!< pixels with depth after the filters (with a noise gate)
+    uint64_t gated_pixels = 0;  //!< of those, dropped by the noise gate
+    double jump_m_sum = 0.0;    //!< sum of the frames' depth-jump limits
+    uint32_t jump_frames = 0;   //!< frames a limit was set for
+  } counts;
 
   //! Binds slot `slot` of `buffers` to a camera (start-up).
   //! \param buffers the carved memory map  \param board its capacities  \param slot_index sensor slot

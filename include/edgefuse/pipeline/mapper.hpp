@@ -29,11 +29,19 @@ enum class PoseMode : uint8_t {
   kTracked,  //!< ICP against the map (the paper's Fig. 3)
 };
 
+//! The fusion rules that follow the sensors' modelled noise (fusion_rules.hpp; with noise weights only).
+struct FusionRuleParams {
+  float jump_sigmas = kJumpSigmas;  //!< depth-jump limit = this x the frame's median noise (0: the truncation)
+  int sub_unit_fill_units = 0;      //!< 0: decided from the fused cameras' medians so far; else this fill
+  float noise_gate_m = 0.0f;        //!< a pixel whose modelled noise exceeds this is not integrated (0: none)
+};
+
 struct MapperParams {
   PoseMode poses = PoseMode::kKnown;
   TrackerParams tracker;       //!< kTracked: alignment, states, push policy
   bool prefilter = true;       //!< run each camera's pre-filters (off: frames are integrated as given)
   bool noise_weights = false;  //!< weight each pixel by its sensor's noise model (several sensors)
+  FusionRuleParams rules;      //!< noise_weights: the depth-jump limit, sub-unit fill and noise gate
 };
 
 //! The phases of a reference step, reported to a StepObserver as each ends.
@@ -87,6 +95,10 @@ class Mapper {
   //! \return kOk also when the frame was not integrated (see out); an error when a kernel refused
   Status map_reference(CameraSlot& cam, const SensorFrame& frame, const Pose* known, const Pose& start,
                        ReferenceStep& out, StepObserver* observer = nullptr);
+  //! One frame of any camera at a pose the caller knows (a recording's poses, a calibrated mounting).
+  //! \param cam its slot  \param frame the raw frame  \param T_world_cam its pose
+  //! \return kNotInitialised while no map is placed; kOk when integrated
+  Status map_at(CameraSlot& cam, const SensorFrame& frame, const Pose& T_world_cam);
   //! One frame of another camera, at the reference's pose of its stamp times T_ref_cam.
   //! \param cam its slot  \param frame the raw frame  \param T_ref_cam its extrinsics
   //! \return kNotInitialised while no map is placed or the reference has no pose; kOk when integrated
@@ -105,8 +117,16 @@ class Mapper {
   //! Mean position of the integrated frames' sensors (the localiser's viewpoint).
   Vec3f mean_viewpoint() const { return map_frames_ > 0 ? Vec3f(view_sum_ / float(map_frames_)) : Vec3f::Zero(); }
   uint64_t last_capture_us() const { return last_capture_us_; }  //!< the last integrated reference frame's stamp
-  //! Sub-unit fill of the fused cameras (fusion_rules.hpp default_sub_unit_fill, medians so far).
+  //! Sub-unit fill of the fused cameras (fusion_rules.hpp default_sub_unit_fill, medians so far),
+  //! or the one set by set_sub_unit_fill().
   int sub_unit_fill() const;
+  //! Fixes the sub-unit fill for the frames to come (a set planned from each camera's first frame).
+  //! \param units weight units (0: decided from the medians again)
+  void set_sub_unit_fill(int units) { params_.rules.sub_unit_fill_units = units; }
+  //! A frame's median modelled noise as mapping would measure it (pre-filters, noise gate), counting
+  //! nothing: for planning the fusion rules before the frames are mapped.
+  //! \param cam its slot  \param frame the raw frame  \param sigma_m the median (0 without noise weights)
+  Status measure_noise(CameraSlot& cam, const SensorFrame& frame, float& sigma_m);
   //! Extraction's support rule for this map: 0 with one camera (equal weights), else
   //! fusion_rules.hpp default_support_weight of the fused cameras' medians so far.
   uint8_t support_weight() const;
@@ -116,6 +136,9 @@ class Mapper {
 
  private:
   Status prepare_frame(CameraSlot& cam, const SensorFrame& in, DepthFrame& out, bool* filtered);
+  Status weigh_frame(CameraSlot& cam, const SensorFrame& in, DepthFrame& out, float& sigma_m, bool* filtered);
+  void apply_noise_gate(CameraSlot& cam, const DepthFrame& f);
+  Status integrate_at(CameraSlot& cam, const DepthFrame& f, const Pose& T_world_cam);
   Status track(CameraSlot& cam, const DepthFrame& f, const Pose& start, ReferenceStep& out, StepObserver* observer);
   bool centre_on(const CameraSlot& cam, const DepthFrame& f, const Pose& T_world_cam);
   void fused_sigmas(float (&sigma)[kFusedMax]) const;

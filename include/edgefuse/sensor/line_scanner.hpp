@@ -21,6 +21,9 @@
 
 namespace edgefuse {
 
+//! The line scanner's range noise (constant, 20 um): its trust against the cameras.
+inline constexpr float kLineScannerSigmaM = 20e-6f;
+
 struct LineScannerModel {
   int beams = 0;             //!< ranges per profile (>= 2)
   float fov_deg = 0;         //!< fan width (0 < fov < 180: the fan looks forward, z' > 0)
