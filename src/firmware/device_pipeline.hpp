@@ -64,6 +64,8 @@
 
 namespace edgefuse::firmware {
 
+struct PairRun;  // one `calib fuse` command while it collects estimates (pair_calibration.cpp)
+
 struct DevicePipelineConfig {
   std::string board;        //!< board folder name (hal.toml, board.toml)
   std::string replay;       //!< rig set / sequence folder every camera replays ("" : hal.toml's backends)
@@ -138,6 +140,9 @@ class DevicePipeline final : public runtime::Pipeline {
 
  private:
   static constexpr int kCamerasMax = 3;
+  bool check_pair(PairRun& run);
+  void collect_pair_estimates(PairRun& run);
+  bool try_pair_estimate(PairRun& run);
   bool init_cameras(const std::string& hal_path, std::string& err);
   bool init_fused(const std::string& hal_path, std::string& err);
   bool init_scanner(const BoardCapacities& board, std::string& err);
