@@ -6,12 +6,15 @@ Status load_map_scene(const TsdfVolume& volume, SurfacePoint* points, std::size_
                       const LocalizationRequest& request, Localizer& loc, LocalizationReport& report) {
   std::size_t count = 0;
   const Status xs = extract_points(volume, points, capacity, count, request.support_weight);
-  report.surface_points = count;
   if (xs != Status::kOk && xs != Status::kOutputTruncated) {
     report.status = xs;
     report.failed = "extraction";
     return xs;
   }
+  const std::size_t kept = keep_supported(volume, points, count, request.min_point_weight);
+  report.weak_points = count - kept;
+  count = kept;
+  report.surface_points = count;
   SceneContext ctx;
   ctx.viewpoint_m = request.viewpoint_m;
   const Status ss = loc.set_scene(points, count, ctx, &volume, kSceneGridVoxels * volume.voxel_m());

@@ -6,6 +6,7 @@
 // Order: bricks in index order, voxels z-y-x inside a brick, then the +x, +y, +z edge of each
 // voxel -- deterministic.
 // Sign convention (shared with marching cubes): a voxel is inside when tsdf < 0; 0 is outside.
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 
@@ -70,6 +71,28 @@ Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t c
     }
   }
   return Status::kOk;
+}
+
+int support_around(const TsdfVolume& volume, const Vec3f& p) {
+  const Vec3f g = (p - volume.origin_m()) / volume.voxel_m() - Vec3f::Constant(0.5f);
+  const int dim = volume.dim();
+  int best = 0;
+  for (int c = 0; c < 8; ++c) {
+    const int x = int(std::floor(g.x())) + (c & 1), y = int(std::floor(g.y())) + ((c >> 1) & 1),
+              z = int(std::floor(g.z())) + ((c >> 2) & 1);
+    if (x < 0 || y < 0 || z < 0 || x >= dim || y >= dim || z >= dim) continue;
+    const int w = volume.weight()[volume.index(x, y, z)];
+    if (w > best) best = w;
+  }
+  return best;
+}
+
+std::size_t keep_supported(const TsdfVolume& volume, SurfacePoint* points, std::size_t count, int min_weight) {
+  if (min_weight <= 0) return count;
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < count; ++i)
+    if (support_around(volume, points[i].position) >= min_weight) points[kept++] = points[i];
+  return kept;
 }
 
 }  // namespace edgefuse

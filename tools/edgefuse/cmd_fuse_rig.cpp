@@ -272,25 +272,6 @@ bool fuse_frames(const FuseRigOptions& o, RigCore& rc, double& fuse_ms, Failure&
   return true;
 }
 
-// Confidence filter: keep a point only where some of the 8 voxels around it holds at least
-// min_weight (weight units: 1/8 sample x trust), i.e. the surface there is supported by that much data.
-void keep_confident(const TsdfVolume& volume, int min_weight, io::PointCloud& cloud) {
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < cloud.points.size(); ++i) {
-    if (support_weight(volume, cloud.points[i]) < min_weight) continue;
-    cloud.points[kept] = cloud.points[i];
-    cloud.normals[kept] = cloud.normals[i];
-    if (!cloud.colours.empty()) cloud.colours[kept] = cloud.colours[i];
-    cloud.support[kept] = cloud.support[i];
-    ++kept;
-  }
-  cloud.points.resize(kept);
-  cloud.normals.resize(kept);
-  if (!cloud.colours.empty()) cloud.colours.resize(kept);
-  cloud.support.resize(kept);
-  cloud.width = int(kept);
-}
-
 // The cloud (and the mesh), under the set's support rule; the summary line.
 bool write_outputs(const FuseRigOptions& o, RigCore& rc, double fuse_ms, Failure& f) {
   CoreSetup& core = rc.core;
@@ -302,8 +283,9 @@ bool write_outputs(const FuseRigOptions& o, RigCore& rc, double fuse_ms, Failure
   }
   io::PointCloud cloud;
   // Each point carries its evidence (the weaker voxel's weight) as the property / field "support".
-  const Status xs = core.extract_cloud(cloud, uint8_t(min_support), true);
-  if (o.min_weight > 0) keep_confident(core.volume, o.min_weight, cloud);
+  // --min-weight: a point is kept only where some of the 8 voxels around it holds that much
+  // weight (keep_supported), i.e. the surface there is supported by that much data.
+  const Status xs = core.extract_cloud(cloud, uint8_t(min_support), true, o.min_weight);
   std::size_t coloured = 0;
   for (const Rgba8& c : cloud.colours) coloured += c.a != 0;
   const std::string out = o.args.get("out", "fused.ply");

@@ -265,24 +265,17 @@ bool fuse_rig_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Failure
   sc.clock.start();
   LocalizationRequest request;
   request.viewpoint_m = view_sum / float(std::max<std::size_t>(nv, 1));
+  request.min_point_weight = uint8_t(min_weight);  // as `edgefuse fuse --min-weight`
+  LocalizationReport report;
   const std::size_t cap = std::min<std::size_t>(board.points_max, board.scene_points_max);
-  std::size_t count = 0;
-  const Status xs = extract_points(core.volume, core.buffers.points, cap, count, request.support_weight);
-  if (min_weight > 0) {  // confidence filter (as `edgefuse fuse --min-weight`): drop weakly supported surface
-    std::size_t kept = 0;
-    for (std::size_t i = 0; i < count; ++i)
-      if (support_weight(core.volume, core.buffers.points[i].position) >= min_weight)
-        core.buffers.points[kept++] = core.buffers.points[i];
-    std::printf("confidence filter (--min-weight %d): %zu of %zu surface points kept\n", min_weight, kept, count);
-    count = kept;
-  }
-  SceneContext ctx;
-  ctx.viewpoint_m = request.viewpoint_m;
-  const Status ss =
-      loc.set_scene(core.buffers.points, count, ctx, &core.volume, kSceneGridVoxels * fs.voxel_m);
-  sc.surface = count;
-  std::printf("fused %s of %s; surface %zu points%s\n", args.get("sensors").c_str(), o.input.c_str(), count,
-              xs == Status::kOutputTruncated || ss == Status::kOutputTruncated ? " (truncated at capacity)" : "");
+  if (load_map_scene(core.volume, core.buffers.points, cap, request, loc, report) != Status::kOk)
+    return fail(f, o.input + ": " + report.failed + ": " + to_string(report.status));
+  if (min_weight > 0)
+    std::printf("confidence filter (--min-weight %d): %zu of %zu surface points kept\n", min_weight,
+                report.surface_points, report.surface_points + report.weak_points);
+  sc.surface = report.surface_points;
+  std::printf("fused %s of %s; surface %zu points%s\n", args.get("sensors").c_str(), o.input.c_str(),
+              report.surface_points, report.truncated ? " (truncated at capacity)" : "");
   return true;
 }
 

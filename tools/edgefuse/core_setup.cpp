@@ -88,10 +88,12 @@ int CoreSetup::hit_percent(const RaycastMaps& maps) {
   return int(100 * hits / (std::size_t(w) * h));
 }
 
-Status CoreSetup::extract_cloud(io::PointCloud& cloud, uint8_t min_weight, bool with_support) const {
+Status CoreSetup::extract_cloud(io::PointCloud& cloud, uint8_t min_weight, bool with_support,
+                                int min_point_weight) const {
   const uint32_t capacity = build_board().points_max;
   std::size_t count = 0;
   const Status s = extract_points(volume, buffers.points, capacity, count, min_weight);
+  count = keep_supported(volume, buffers.points, count, min_point_weight);
   cloud = io::PointCloud();
   cloud.points.reserve(count);
   cloud.normals.reserve(count);

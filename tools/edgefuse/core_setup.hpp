@@ -57,7 +57,9 @@ struct CoreSetup {
   //! The zero-crossing cloud into the static point buffer, then into `cloud`.
   //! \param cloud output  \param min_weight extract_points' support rule (0: every observed pair)
   //! \param with_support fill cloud.support (each point's evidence, SurfacePoint::support)
-  Status extract_cloud(io::PointCloud& cloud, uint8_t min_weight = 0, bool with_support = false) const;
+  //! \param min_point_weight confidence filter (keep_supported; 0: none)
+  Status extract_cloud(io::PointCloud& cloud, uint8_t min_weight = 0, bool with_support = false,
+                       int min_point_weight = 0) const;
 };
 
 //! The kernels' threads of a host command: a worker pool and its row runners (start-up).

@@ -293,16 +293,4 @@ bool push_rig_frames(RigSensors& rs, Mapper& mapper, CoreSetup& core, const RigM
   return true;
 }
 
-int support_weight(const TsdfVolume& vol, const Vec3f& p) {
-  const Vec3f g = (p - vol.origin_m()) / vol.voxel_m() - Vec3f::Constant(0.5f);
-  int best = 0;
-  for (int c = 0; c < 8; ++c) {
-    const int x = int(std::floor(g.x())) + (c & 1), y = int(std::floor(g.y())) + ((c >> 1) & 1),
-              z = int(std::floor(g.z())) + ((c >> 2) & 1);
-    if (x < 0 || y < 0 || z < 0 || x >= vol.dim() || y >= vol.dim() || z >= vol.dim()) continue;
-    best = std::max(best, int(vol.weight()[vol.index(x, y, z)]));
-  }
-  return best;
-}
-
 }  // namespace edgefuse::cli

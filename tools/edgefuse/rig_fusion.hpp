@@ -98,9 +98,4 @@ bool push_rig_frames(RigSensors& rs, Mapper& mapper, CoreSetup& core, const RigM
                      std::size_t frames_max, bool colour_ref, std::string& err, bool verbose,
                      const LaserPushOptions& laser = LaserPushOptions());
 
-//! Confidence of a fused surface point: the largest weight of the 8 voxels around it (weight units:
-//! 1/8 sample x trust), i.e. how much data supports the surface there.
-//! \param volume the space  \param p world point (metres)
-int support_weight(const TsdfVolume& volume, const Vec3f& p);
-
 }  // namespace edgefuse::cli

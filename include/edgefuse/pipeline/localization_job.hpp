@@ -25,6 +25,7 @@ struct LocalizationRequest {
   bool segments = false;              //!< model-free segments (else poses with the loaded models)
   const BinGeometry* bin = nullptr;   //!< the bin from configuration (null: detect it)
   uint8_t support_weight = 0;         //!< extraction's support rule (Mapper::support_weight())
+  uint8_t min_point_weight = 0;       //!< confidence filter: drop points no voxel around which holds this (0: none)
   Vec3f viewpoint_m = Vec3f::Zero();  //!< where the map was seen from (Mapper::mean_viewpoint())
 };
 
@@ -33,6 +34,7 @@ struct LocalizationReport {
   Status status = Status::kOk;
   const char* failed = "";         //!< the stage that refused: "extraction", "scene", "localisation"
   std::size_t surface_points = 0;  //!< extracted (and loaded into the scene)
+  std::size_t weak_points = 0;     //!< extracted but dropped by the confidence filter
   bool truncated = false;          //!< the surface exceeded the board's point capacity
   std::size_t scene_points = 0;    //!< scene points before bin removal
   std::size_t count = 0;           //!< results in Localizer::results()

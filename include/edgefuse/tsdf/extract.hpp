@@ -35,6 +35,16 @@ struct SurfacePoint {
 Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t capacity, std::size_t& count,
                       uint8_t min_weight = 0);
 
+//! How much data supports the surface at p: the largest weight of the 8 voxels around it (weight
+//! units: 1/8 sample x trust).
+//! \param volume the space  \param p world point (metres)
+int support_around(const TsdfVolume& volume, const Vec3f& p);
+
+//! Confidence filter: keeps, in order, the points whose support_around() is at least min_weight.
+//! \param volume the space  \param points extracted points (compacted in place)  \param count how many
+//! \param min_weight weight units (0: every point)  \return the number kept
+std::size_t keep_supported(const TsdfVolume& volume, SurfacePoint* points, std::size_t count, int min_weight);
+
 //! Receives the mesh as it is produced (the host writes it to a file; the board may count it).
 class MeshSink {
  public:
