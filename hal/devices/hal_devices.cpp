@@ -70,104 +70,130 @@ const char* HalDevices::built_backends() {
       ;
 }
 
-bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override,
-                       bool replay_loop, double replay_speed, bool inject_faults) {
-  owned_->sim_monitor.reset(new SimDeviceMonitor(clock));
-  monitor_ = owned_->sim_monitor.get();
-  bool any_usb = false;
-  uint64_t rig_epoch_us = 0;  // the sim rig's motion starts when its devices are built
-  for (const io::BoardCamera& c : board.cameras) {
-    std::unique_ptr<DepthCamera> cam;
-    const TruthSource* truth = nullptr;  // sim, or a recording with ground truth
-    const io::CameraBackend backend = replay_override.empty() ? c.backend : io::CameraBackend::kReplay;
-    const std::string where = "camera '" + c.name + "'";
-    switch (backend) {
-      case io::CameraBackend::kSim: {
-        SimDepthCameraConfig sc;
-        if (c.name == "xtion")
-          sc = sim_xtion_config();
-        else if (c.name == "tof")
-          sc = sim_tof_config();
-        else {
-          err = where + ": the sim backend knows the rig's 'xtion' and 'tof'";
-          return false;
-        }
-        if (c.fps > 0) sc.fps = c.fps;
-        SimDepthCamera* sc_cam = new SimDepthCamera(sc, scene_, clock);
-        // One rig: its cameras' poses follow the same motion clock (each starts on its own thread).
-        if (rig_epoch_us == 0) rig_epoch_us = clock.now_us();
-        sc_cam->set_rig_epoch_us(rig_epoch_us);
-        cam.reset(sc_cam);
-        truth = sc_cam;
-        break;
-      }
-      case io::CameraBackend::kReplay: {
-        const std::string folder = replay_override.empty() ? c.uri : replay_override;
-        std::unique_ptr<io::DepthSequence> seq(new io::DepthSequence);
-        std::string e;
-        // A rig set replays the sensor of the camera's name; other layouts take no sensor name.
-        if (!io::open_depth_sequence(folder, c.name, *seq, e) && !io::open_depth_sequence(folder, "", *seq, e)) {
-          err = where + ": replay: " + e;
-          return false;
-        }
-        ReplayDepthCamera* rc = new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, replay_loop, replay_speed);
-        cam.reset(rc);
-        if (rc->has_truth()) truth = rc;
-        owned_->sequences.push_back(std::move(seq));
-        break;
-      }
-      case io::CameraBackend::kOpenni2: {
-#if EDGEFUSE_HAVE_OPENNI2
-        std::unique_ptr<Openni2CameraConfig> oc(new Openni2CameraConfig);
-        oc->name = c.name.c_str();
-        oc->uri = c.uri.c_str();
-        if (c.width) oc->width = c.width;
-        if (c.height) oc->height = c.height;
-        if (c.fps) oc->fps = c.fps;
-        oc->playback_loop = replay_loop;  // an .oni uri loops like a replay folder
-        if (c.has_intrinsics) {
-          oc->intr.fx = float(c.fx);
-          oc->intr.fy = float(c.fy);
-          oc->intr.cx = float(c.cx);
-          oc->intr.cy = float(c.cy);
-        }
-        cam.reset(new Openni2DepthCamera(*oc, clock));
-        owned_->oni_configs.push_back(std::move(oc));
-        break;
-#else
-        err = where + ": this build has no openni2 backend (libopenni2-dev missing); built: " + built_backends();
-        return false;
-#endif
-      }
-      case io::CameraBackend::kV4l2: {
-#if EDGEFUSE_HAVE_V4L2
-        std::unique_ptr<V4l2CameraConfig> vc(new V4l2CameraConfig);
-        vc->name = c.name.c_str();
-        vc->device = c.uri.c_str();
-        vc->intr.width = c.width;
-        vc->intr.height = c.height;
-        vc->intr.fx = float(c.fx);
-        vc->intr.fy = float(c.fy);
-        vc->intr.cx = float(c.cx);
-        vc->intr.cy = float(c.cy);
-        vc->depth_unit_m = float(c.depth_unit_m);
-        if (c.fps) vc->fps = c.fps;
-        cam.reset(new V4l2DepthCamera(*vc, linux_v4l2_sys()));
-        owned_->v4l2_configs.push_back(std::move(vc));
-        break;
-#else
-        err = where + ": this build has no v4l2 backend; built: " + built_backends();
-        return false;
-#endif
-      }
-      case io::CameraBackend::kNull: cam.reset(new NullDepthCamera); break;
-    }
-    any_usb = any_usb || (c.has_usb && replay_override.empty() && backend != io::CameraBackend::kSim);
-    configs_.push_back(c);
-    cameras_.push_back(cam.get());
-    truths_.push_back(truth);
-    owned_->cameras.push_back(std::move(cam));
+namespace {
+
+std::string camera_where(const io::BoardCamera& c) { return "camera '" + c.name + "'"; }
+std::string scanner_where(const io::BoardScanner& sc) { return "line_scanner '" + sc.name + "'"; }
+
+}  // namespace
+
+bool HalDevices::make_sim_camera(const io::BoardCamera& c, Clock& clock, uint64_t& rig_epoch_us,
+                                 std::unique_ptr<DepthCamera>& cam, const TruthSource*& truth, std::string& err) {
+  SimDepthCameraConfig sc;
+  if (c.name == "xtion")
+    sc = sim_xtion_config();
+  else if (c.name == "tof")
+    sc = sim_tof_config();
+  else {
+    err = camera_where(c) + ": the sim backend knows the rig's 'xtion' and 'tof'";
+    return false;
   }
+  if (c.fps > 0) sc.fps = c.fps;
+  SimDepthCamera* sc_cam = new SimDepthCamera(sc, scene_, clock);
+  // One rig: its cameras' poses follow the same motion clock (each starts on its own thread).
+  if (rig_epoch_us == 0) rig_epoch_us = clock.now_us();
+  sc_cam->set_rig_epoch_us(rig_epoch_us);
+  cam.reset(sc_cam);
+  truth = sc_cam;
+  return true;
+}
+
+bool HalDevices::make_replay_camera(const io::BoardCamera& c, const std::string& folder, Clock& clock, bool loop,
+                                    double speed, std::unique_ptr<DepthCamera>& cam, const TruthSource*& truth,
+                                    std::string& err) {
+  std::unique_ptr<io::DepthSequence> seq(new io::DepthSequence);
+  std::string e;
+  // A rig set replays the sensor of the camera's name; other layouts take no sensor name.
+  if (!io::open_depth_sequence(folder, c.name, *seq, e) && !io::open_depth_sequence(folder, "", *seq, e)) {
+    err = camera_where(c) + ": replay: " + e;
+    return false;
+  }
+  ReplayDepthCamera* rc = new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, loop, speed);
+  cam.reset(rc);
+  if (rc->has_truth()) truth = rc;
+  owned_->sequences.push_back(std::move(seq));
+  return true;
+}
+
+#if EDGEFUSE_HAVE_OPENNI2
+bool HalDevices::make_openni2_camera(const io::BoardCamera& c, Clock& clock, bool loop,
+                                     std::unique_ptr<DepthCamera>& cam, std::string&) {
+  std::unique_ptr<Openni2CameraConfig> oc(new Openni2CameraConfig);
+  oc->name = c.name.c_str();
+  oc->uri = c.uri.c_str();
+  if (c.width) oc->width = c.width;
+  if (c.height) oc->height = c.height;
+  if (c.fps) oc->fps = c.fps;
+  oc->playback_loop = loop;  // an .oni uri loops like a replay folder
+  if (c.has_intrinsics) {
+    oc->intr.fx = float(c.fx);
+    oc->intr.fy = float(c.fy);
+    oc->intr.cx = float(c.cx);
+    oc->intr.cy = float(c.cy);
+  }
+  cam.reset(new Openni2DepthCamera(*oc, clock));
+  owned_->oni_configs.push_back(std::move(oc));
+  return true;
+}
+#else
+bool HalDevices::make_openni2_camera(const io::BoardCamera& c, Clock&, bool, std::unique_ptr<DepthCamera>&,
+                                     std::string& err) {
+  err = camera_where(c) + ": this build has no openni2 backend (libopenni2-dev missing); built: " + built_backends();
+  return false;
+}
+#endif
+
+#if EDGEFUSE_HAVE_V4L2
+bool HalDevices::make_v4l2_camera(const io::BoardCamera& c, std::unique_ptr<DepthCamera>& cam, std::string&) {
+  std::unique_ptr<V4l2CameraConfig> vc(new V4l2CameraConfig);
+  vc->name = c.name.c_str();
+  vc->device = c.uri.c_str();
+  vc->intr.width = c.width;
+  vc->intr.height = c.height;
+  vc->intr.fx = float(c.fx);
+  vc->intr.fy = float(c.fy);
+  vc->intr.cx = float(c.cx);
+  vc->intr.cy = float(c.cy);
+  vc->depth_unit_m = float(c.depth_unit_m);
+  if (c.fps) vc->fps = c.fps;
+  cam.reset(new V4l2DepthCamera(*vc, linux_v4l2_sys()));
+  owned_->v4l2_configs.push_back(std::move(vc));
+  return true;
+}
+#else
+bool HalDevices::make_v4l2_camera(const io::BoardCamera& c, std::unique_ptr<DepthCamera>&, std::string& err) {
+  err = camera_where(c) + ": this build has no v4l2 backend; built: " + built_backends();
+  return false;
+}
+#endif
+
+bool HalDevices::add_camera(const io::BoardCamera& c, Clock& clock, const std::string& replay_override,
+                            bool replay_loop, double replay_speed, uint64_t& rig_epoch_us, bool& any_usb,
+                            std::string& err) {
+  std::unique_ptr<DepthCamera> cam;
+  const TruthSource* truth = nullptr;  // sim, or a recording with ground truth
+  const io::CameraBackend backend = replay_override.empty() ? c.backend : io::CameraBackend::kReplay;
+  bool made = true;
+  switch (backend) {
+    case io::CameraBackend::kSim: made = make_sim_camera(c, clock, rig_epoch_us, cam, truth, err); break;
+    case io::CameraBackend::kReplay:
+      made = make_replay_camera(c, replay_override.empty() ? c.uri : replay_override, clock, replay_loop,
+                                replay_speed, cam, truth, err);
+      break;
+    case io::CameraBackend::kOpenni2: made = make_openni2_camera(c, clock, replay_loop, cam, err); break;
+    case io::CameraBackend::kV4l2: made = make_v4l2_camera(c, cam, err); break;
+    case io::CameraBackend::kNull: cam.reset(new NullDepthCamera); break;
+  }
+  if (!made) return false;
+  any_usb = any_usb || (c.has_usb && replay_override.empty() && backend != io::CameraBackend::kSim);
+  configs_.push_back(c);
+  cameras_.push_back(cam.get());
+  truths_.push_back(truth);
+  owned_->cameras.push_back(std::move(cam));
+  return true;
+}
+
+void HalDevices::watch_usb(bool any_usb, Clock& clock) {
 #if EDGEFUSE_HAVE_LIBUSB
   if (any_usb) {
     std::unique_ptr<UsbDeviceMonitor> usb(new UsbDeviceMonitor(libusb_api(), clock));
@@ -178,61 +204,92 @@ bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err
   }
 #else
   (void)any_usb;  // without libusb a vanished camera is retried with back-off
+  (void)clock;
 #endif
+}
+
+bool HalDevices::add_replay_scanner(const io::BoardScanner& sc, const std::string& replay_override, Clock& clock,
+                                    double replay_speed, std::string& err) {
+  const std::string where = scanner_where(sc);
+  if (replay_override.empty()) {
+    err = where + ": replay needs a rig set (edgefuse acquire --replay DATASET)";
+    return false;
+  }
+  io::RigToml rig;
+  std::unique_ptr<io::LineScan> scan(new io::LineScan);
+  if (!io::read_rig_toml(replay_override + "/rig.toml", rig, err) || !io::open_line_scan(rig, sc.name, *scan, err)) {
+    err = where + ": replay: " + err;
+    return false;
+  }
+  owned_->scanner.reset(new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock, replay_speed));
+  // The axis as the replay reports positions: from the first to the last recorded pose.
+  std::size_t first = scan->has_pose.size(), last = 0;
+  for (std::size_t p = 0; p < scan->has_pose.size(); ++p)
+    if (scan->has_pose[p]) {
+      if (first == scan->has_pose.size()) first = p;
+      last = p;
+    }
+  if (first < last && (scan->T_world_sensor[last].t - scan->T_world_sensor[first].t).norm() > 1e-6f) {
+    scanner_axis0_ = scan->T_world_sensor[first];
+    scanner_axis_ = (scan->T_world_sensor[last].t - scan->T_world_sensor[first].t).normalized();
+    has_scanner_axis_ = true;
+  }
+  owned_->line_scan = std::move(scan);
+  return true;
+}
+
+#if EDGEFUSE_HAVE_GPIOD
+bool HalDevices::make_gpiod_trigger(const io::BoardPin& pin, const io::BoardScanner&, Clock& clock, std::string&) {
+  owned_->trigger_chip = pin.chip;
+  GpiodLineConfig lc;
+  lc.chip = owned_->trigger_chip.c_str();
+  lc.offset = unsigned(pin.offset);
+  owned_->trigger.reset(new GpiodTriggerInput(lc, *libgpiod_api(), clock));
+  return true;
+}
+#else
+bool HalDevices::make_gpiod_trigger(const io::BoardPin&, const io::BoardScanner& sc, Clock&, std::string& err) {
+  err = scanner_where(sc) + ": trigger_pin '" + sc.trigger_pin + "' needs the gpiod backend; built: " +
+        built_backends();
+  return false;
+}
+#endif
+
+bool HalDevices::add_sim_scanner(const io::BoardHal& board, const io::BoardScanner& sc, Clock& clock,
+                                 std::string& err) {
+  const io::BoardPin* pin = sc.trigger_pin.empty() ? nullptr : board.find_pin(sc.trigger_pin);
+  if (pin) {
+    if (!make_gpiod_trigger(*pin, sc, clock, err)) return false;
+  } else {
+    owned_->trigger.reset(new SimTriggerInput(10000u, clock));  // 100 profiles per second
+  }
+  // The robot moves the scanner at 0.1 m/s back and forth over the bin's 0.3 m (bin_rig_a's
+  // laser path starts at the bin's -y wall).
+  owned_->axis.reset(new SimLinearAxis(clock.now_us(), 0.0, 0.1, 0.299));
+  const SimLineScannerConfig lc = sim_laser_config();
+  owned_->scanner.reset(new SimLineScanner(lc, scene_, *owned_->trigger, *owned_->axis));
+  scanner_axis0_ = lc.T_world_axis0;
+  scanner_axis_ = lc.axis_world;
+  has_scanner_axis_ = true;
+  return true;
+}
+
+bool HalDevices::build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override,
+                       bool replay_loop, double replay_speed, bool inject_faults) {
+  owned_->sim_monitor.reset(new SimDeviceMonitor(clock));
+  monitor_ = owned_->sim_monitor.get();
+  bool any_usb = false;
+  uint64_t rig_epoch_us = 0;  // the sim rig's motion starts when its devices are built
+  for (const io::BoardCamera& c : board.cameras)
+    if (!add_camera(c, clock, replay_override, replay_loop, replay_speed, rig_epoch_us, any_usb, err)) return false;
+  watch_usb(any_usb, clock);
   if (!board.scanners.empty()) {
     const io::BoardScanner& sc = board.scanners[0];
-    const std::string where = "line_scanner '" + sc.name + "'";
     const bool replay = !replay_override.empty() || sc.backend == io::ScannerBackend::kReplay;
     if (replay) {
-      if (replay_override.empty()) {
-        err = where + ": replay needs a rig set (edgefuse acquire --replay DATASET)";
-        return false;
-      }
-      io::RigToml rig;
-      std::unique_ptr<io::LineScan> scan(new io::LineScan);
-      if (!io::read_rig_toml(replay_override + "/rig.toml", rig, err) ||
-          !io::open_line_scan(rig, sc.name, *scan, err)) {
-        err = where + ": replay: " + err;
-        return false;
-      }
-      owned_->scanner.reset(new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock, replay_speed));
-      // The axis as the replay reports positions: from the first to the last recorded pose.
-      std::size_t first = scan->has_pose.size(), last = 0;
-      for (std::size_t p = 0; p < scan->has_pose.size(); ++p)
-        if (scan->has_pose[p]) {
-          if (first == scan->has_pose.size()) first = p;
-          last = p;
-        }
-      if (first < last && (scan->T_world_sensor[last].t - scan->T_world_sensor[first].t).norm() > 1e-6f) {
-        scanner_axis0_ = scan->T_world_sensor[first];
-        scanner_axis_ = (scan->T_world_sensor[last].t - scan->T_world_sensor[first].t).normalized();
-        has_scanner_axis_ = true;
-      }
-      owned_->line_scan = std::move(scan);
+      if (!add_replay_scanner(sc, replay_override, clock, replay_speed, err)) return false;
     } else if (sc.backend == io::ScannerBackend::kSim) {
-      const io::BoardPin* pin = sc.trigger_pin.empty() ? nullptr : board.find_pin(sc.trigger_pin);
-      if (pin) {
-#if EDGEFUSE_HAVE_GPIOD
-        owned_->trigger_chip = pin->chip;
-        GpiodLineConfig lc;
-        lc.chip = owned_->trigger_chip.c_str();
-        lc.offset = unsigned(pin->offset);
-        owned_->trigger.reset(new GpiodTriggerInput(lc, *libgpiod_api(), clock));
-#else
-        err = where + ": trigger_pin '" + sc.trigger_pin + "' needs the gpiod backend; built: " + built_backends();
-        return false;
-#endif
-      } else {
-        owned_->trigger.reset(new SimTriggerInput(10000u, clock));  // 100 profiles per second
-      }
-      // The robot moves the scanner at 0.1 m/s back and forth over the bin's 0.3 m (bin_rig_a's
-      // laser path starts at the bin's -y wall).
-      owned_->axis.reset(new SimLinearAxis(clock.now_us(), 0.0, 0.1, 0.299));
-      const SimLineScannerConfig lc = sim_laser_config();
-      owned_->scanner.reset(new SimLineScanner(lc, scene_, *owned_->trigger, *owned_->axis));
-      scanner_axis0_ = lc.T_world_axis0;
-      scanner_axis_ = lc.axis_world;
-      has_scanner_axis_ = true;
+      if (!add_sim_scanner(board, sc, clock, err)) return false;
     }
     scanner_ = owned_->scanner.get();
   }

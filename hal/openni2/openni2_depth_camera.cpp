@@ -87,36 +87,28 @@ HalStatus Openni2DepthCamera::fail(HalStatus s, const char* what) {
   return s;
 }
 
-HalStatus Openni2DepthCamera::start(int mode_index) {
-  if (mode_index != 0) return HalStatus::kInvalidArgument;
-  stop();
-  error_[0] = 0;
-  if (!acquire_openni(error_, sizeof(error_))) return HalStatus::kIoError;
-  impl_->initialised = true;
+HalStatus Openni2DepthCamera::prepare_playback() {
   Impl& d = *impl_;
-  const char* uri = config_.uri && config_.uri[0] ? config_.uri : openni::ANY_DEVICE;
-  if (d.device.open(uri) != openni::STATUS_OK) return fail(HalStatus::kNoDevice, "open");
-  if (d.depth.create(d.device, openni::SENSOR_DEPTH) != openni::STATUS_OK)
-    return fail(HalStatus::kIoError, "create depth stream");
-  recorded_frames_ = 0;
-  ended_ = false;
-  if (d.device.isFile()) {
-    openni::PlaybackControl* pc = d.device.getPlaybackControl();
-    if (!pc) return fail(HalStatus::kIoError, "no playback control for the recording");
-    // Manual speed (-1): each wait hands over the next frame, so "as fast as possible" drops none
-    // (speed 0 would race ahead and keep only the newest frame).
-    if (pc->setSpeed(config_.playback_fast ? -1.0f : 1.0f) != openni::STATUS_OK ||
-        pc->setRepeatEnabled(config_.playback_loop) != openni::STATUS_OK)
-      return fail(HalStatus::kIoError, "set playback speed/repeat");
-    recorded_frames_ = pc->getNumberOfFrames(d.depth);
-    if (recorded_frames_ <= 0) return fail(HalStatus::kBadFrame, "recording holds no depth frames");
-    OniCropping crop;  // OpenNI2 2.2's player drops every frame of a stream without it
-    int crop_size = sizeof(crop);
-    if (d.depth.getProperty(openni::STREAM_PROPERTY_CROPPING, &crop, &crop_size) != openni::STATUS_OK)
-      return fail(HalStatus::kBadFrame,
-                  "recording has no cropping property (recorded from a device without cropping, e.g. "
-                  "Dummy); OpenNI2 2.2's player would drop every frame of it");
-  }
+  openni::PlaybackControl* pc = d.device.getPlaybackControl();
+  if (!pc) return fail(HalStatus::kIoError, "no playback control for the recording");
+  // Manual speed (-1): each wait hands over the next frame, so "as fast as possible" drops none
+  // (speed 0 would race ahead and keep only the newest frame).
+  if (pc->setSpeed(config_.playback_fast ? -1.0f : 1.0f) != openni::STATUS_OK ||
+      pc->setRepeatEnabled(config_.playback_loop) != openni::STATUS_OK)
+    return fail(HalStatus::kIoError, "set playback speed/repeat");
+  recorded_frames_ = pc->getNumberOfFrames(d.depth);
+  if (recorded_frames_ <= 0) return fail(HalStatus::kBadFrame, "recording holds no depth frames");
+  OniCropping crop;  // OpenNI2 2.2's player drops every frame of a stream without it
+  int crop_size = sizeof(crop);
+  if (d.depth.getProperty(openni::STREAM_PROPERTY_CROPPING, &crop, &crop_size) != openni::STATUS_OK)
+    return fail(HalStatus::kBadFrame,
+                "recording has no cropping property (recorded from a device without cropping, e.g. "
+                "Dummy); OpenNI2 2.2's player would drop every frame of it");
+  return HalStatus::kOk;
+}
+
+HalStatus Openni2DepthCamera::select_depth_mode() {
+  Impl& d = *impl_;
   // Find the requested mode among the sensor's; set it only when it differs from the current one
   // (the Dummy device and .oni playback refuse setVideoMode).
   const openni::Array<openni::VideoMode>& modes = d.depth.getSensorInfo().getSupportedVideoModes();
@@ -133,15 +125,18 @@ HalStatus Openni2DepthCamera::start(int mode_index) {
       }
     }
   }
-  if (!found) {
-    int n = std::snprintf(error_, sizeof(error_), "openni2 '%s': no depth mode %dx%d@%d %s; offered:", config_.uri,
-                          config_.width, config_.height, config_.fps,
-                          config_.format == Openni2DepthFormat::k100um ? "100um" : "1mm");
-    for (int i = 0; i < modes.getSize() && n > 0 && std::size_t(n) < sizeof(error_); ++i)
-      n += std::snprintf(error_ + n, sizeof(error_) - std::size_t(n), " %dx%d@%d/fmt%d", modes[i].getResolutionX(),
-                         modes[i].getResolutionY(), modes[i].getFps(), int(modes[i].getPixelFormat()));
-    return fail(HalStatus::kInvalidArgument, "mode");
-  }
+  if (found) return HalStatus::kOk;
+  int n = std::snprintf(error_, sizeof(error_), "openni2 '%s': no depth mode %dx%d@%d %s; offered:", config_.uri,
+                        config_.width, config_.height, config_.fps,
+                        config_.format == Openni2DepthFormat::k100um ? "100um" : "1mm");
+  for (int i = 0; i < modes.getSize() && n > 0 && std::size_t(n) < sizeof(error_); ++i)
+    n += std::snprintf(error_ + n, sizeof(error_) - std::size_t(n), " %dx%d@%d/fmt%d", modes[i].getResolutionX(),
+                       modes[i].getResolutionY(), modes[i].getFps(), int(modes[i].getPixelFormat()));
+  return fail(HalStatus::kInvalidArgument, "mode");
+}
+
+void Openni2DepthCamera::set_up_colour() {
+  Impl& d = *impl_;
   // Colour registered to depth: only when the device can register (else colour is not delivered,
   // since unregistered colour would paint the wrong voxels).
   colour_registered_ = false;
@@ -165,22 +160,47 @@ HalStatus Openni2DepthCamera::start(int mode_index) {
   if (config_.colour && !colour_registered_ && colour_state_ != before)
     std::fprintf(stderr, "openni2 '%s' (%s): colour requested but not delivered: %s; depth only\n", config_.uri,
                  config_.name, to_string(colour_state_));
-  // Intrinsics: the board's, else from the reported field of view (centred principal point).
+}
+
+void Openni2DepthCamera::set_intrinsics() {
+  // The board's, else from the reported field of view (centred principal point).
   intr_ = config_.intr;
   intr_.width = config_.width;
   intr_.height = config_.height;
   intr_.depth_scale = config_.format == Openni2DepthFormat::k100um ? 10000.0f : 1000.0f;
-  if (!(intr_.fx > 0)) {
-    float hfov = d.depth.getHorizontalFieldOfView(), vfov = d.depth.getVerticalFieldOfView();
-    if (!(hfov > 0.1f) || !(vfov > 0.1f)) {  // not reported (Dummy, some recordings): Xtion's 58 x 45 deg
-      hfov = 58.0f * 3.14159265f / 180.0f;
-      vfov = 45.0f * 3.14159265f / 180.0f;
-    }
-    intr_.fx = 0.5f * float(config_.width) / std::tan(0.5f * hfov);
-    intr_.fy = 0.5f * float(config_.height) / std::tan(0.5f * vfov);
-    intr_.cx = 0.5f * float(config_.width) - 0.5f;
-    intr_.cy = 0.5f * float(config_.height) - 0.5f;
+  if (intr_.fx > 0) return;
+  float hfov = impl_->depth.getHorizontalFieldOfView(), vfov = impl_->depth.getVerticalFieldOfView();
+  if (!(hfov > 0.1f) || !(vfov > 0.1f)) {  // not reported (Dummy, some recordings): Xtion's 58 x 45 deg
+    hfov = 58.0f * 3.14159265f / 180.0f;
+    vfov = 45.0f * 3.14159265f / 180.0f;
   }
+  intr_.fx = 0.5f * float(config_.width) / std::tan(0.5f * hfov);
+  intr_.fy = 0.5f * float(config_.height) / std::tan(0.5f * vfov);
+  intr_.cx = 0.5f * float(config_.width) - 0.5f;
+  intr_.cy = 0.5f * float(config_.height) - 0.5f;
+}
+
+HalStatus Openni2DepthCamera::start(int mode_index) {
+  if (mode_index != 0) return HalStatus::kInvalidArgument;
+  stop();
+  error_[0] = 0;
+  if (!acquire_openni(error_, sizeof(error_))) return HalStatus::kIoError;
+  impl_->initialised = true;
+  Impl& d = *impl_;
+  const char* uri = config_.uri && config_.uri[0] ? config_.uri : openni::ANY_DEVICE;
+  if (d.device.open(uri) != openni::STATUS_OK) return fail(HalStatus::kNoDevice, "open");
+  if (d.depth.create(d.device, openni::SENSOR_DEPTH) != openni::STATUS_OK)
+    return fail(HalStatus::kIoError, "create depth stream");
+  recorded_frames_ = 0;
+  ended_ = false;
+  if (d.device.isFile()) {
+    const HalStatus s = prepare_playback();
+    if (s != HalStatus::kOk) return s;
+  }
+  const HalStatus s = select_depth_mode();
+  if (s != HalStatus::kOk) return s;
+  set_up_colour();
+  set_intrinsics();
   if (d.depth.start() != openni::STATUS_OK) return fail(HalStatus::kIoError, "start depth stream");
   running_ = true;
   frame_since_start_ = false;

@@ -189,124 +189,174 @@ bool Localizer::prepare_rest_scene(const LocalizeParams& params) {
   return true;
 }
 
-void Localizer::rest_vote_job(void* self, std::size_t chunk) {
-  const Localizer& me = *static_cast<const Localizer*>(self);
-  const LocalizeParams& params = *me.job_params_;
-  const RestScene& rs = me.rest_;
-  const int m = me.job_model_;
-  const ModelInfo& info = me.b_.models[m];
-  const OrientedPoint* dense = me.model_points(m);
-  const std::size_t jobs = std::size_t(rs.faces) * std::size_t(rs.yaw_steps);
-  const std::size_t lo = chunk * jobs / kVoteAccumulators, hi = (chunk + 1) * jobs / kVoteAccumulators;
-  uint16_t* acc = me.b_.votes + chunk * std::size_t(me.b_.ppf_points_max) * kPpfAngleBins;
-  const float* packed = reinterpret_cast<const float*>(me.b_.scratch);
-  // Model samples about as far apart as the scene samples.
-  const float ratio = info.dense_step_m > 0 ? params.rest_cell_m / info.dense_step_m : 1.0f;
-  const uint32_t stride = ratio > 1.0f ? uint32_t(ratio * ratio) : 1u;
-  const float cos_inc = std::cos(params.max_incidence_deg * (ppf::kPi / 180.0f));
-  const float tol = params.rest_height_tol_m, inv_cell = 1.0f / rs.cell_m;
-  Mat3f B;
-  B.col(0) = rs.a0;
-  B.col(1) = rs.a1;
-  B.col(2) = me.ctx_.up.normalized();
+// One chunk of rest_vote_job: its (resting face, yaw) jobs of model job_model_ vote into the
+// chunk's accumulator; what the jobs share is set up once.
+struct Localizer::RestVoter {
+  const Localizer& me;
+  const LocalizeParams& params;
+  const RestScene& rs;
+  const int m;
+  const ModelInfo& info;
+  const OrientedPoint* dense;
+  uint16_t* acc;
+  const float* packed;
+  uint32_t stride;  //!< model samples about as far apart as the scene samples
+  float cos_inc, tol, inv_cell;
+  Mat3f B;  //!< floor axes and up: the vote frame to the world
   // Cells that received votes are listed (a quarter of the queue per chunk), so finding the peaks
   // and clearing the grid cost as much as the votes, not the grid (most of it stays empty); when
   // the list overflows, the whole grid is scanned (same peaks: ties go to the lower cell index).
-  const std::size_t cells = std::size_t(rs.w) * std::size_t(rs.h);
-  uint32_t* touched = me.b_.queue + chunk * (me.b_.scene_points_max / kVoteAccumulators);
-  const std::size_t touched_cap = me.b_.scene_points_max / kVoteAccumulators;
-  std::memset(acc, 0, sizeof(uint16_t) * cells);
+  std::size_t cells;
+  uint32_t* touched;
+  std::size_t touched_cap;
+  // The current resting face's frame: its lowest point on the floor.
   int face = -1;
   Mat3f Q = Mat3f::Identity();
   float zmin = 0;
   Vec3f c = Vec3f::Zero();
-  for (std::size_t j = lo; j < hi; ++j) {
-    const int f = int(j / std::size_t(rs.yaw_steps));
-    const float yaw = 2.0f * ppf::kPi * float(j % std::size_t(rs.yaw_steps)) / float(rs.yaw_steps);
-    if (f != face) {  // the resting face's frame: its lowest point on the floor
-      face = f;
-      Q = rest_rotation(info.rest_down[f]);
-      zmin = 1e30f;
-      for (uint32_t i = 0; i < info.dense_count; ++i) zmin = std::min(zmin, Q.row(2).dot(dense[i].p));
-      c = Q * info.centre_m;
+
+  RestVoter(const Localizer& localizer, std::size_t chunk);
+  //! Job j: (resting face, yaw) j / yaw_steps, j % yaw_steps; its peaks into candidates[2 j, 2 j + 2).
+  void run(std::size_t j);
+  void enter_face(int f);
+  //! The model samples at yaw (cos, sin) vote; returns how many cells received votes.
+  std::size_t vote(float cy, float sy) const;
+  //! Peak k: the strongest cell at least 3 cells from the earlier peaks (px, py); returns its votes.
+  uint16_t strongest_cell(int k, std::size_t nt, bool listed, int* px, int* py) const;
+  //! The candidate of the peak at (x0, y0): its votes are its 3 x 3 neighbourhood's, its position
+  //! their weighted centre.
+  void write_candidate(int x0, int y0, float cy, float sy, PoseCandidate& out) const;
+};
+
+Localizer::RestVoter::RestVoter(const Localizer& localizer, std::size_t chunk)
+    : me(localizer),
+      params(*me.job_params_),
+      rs(me.rest_),
+      m(me.job_model_),
+      info(me.b_.models[m]),
+      dense(me.model_points(m)),
+      acc(me.b_.votes + chunk * std::size_t(me.b_.ppf_points_max) * kPpfAngleBins),
+      packed(reinterpret_cast<const float*>(me.b_.scratch)) {
+  const float ratio = info.dense_step_m > 0 ? params.rest_cell_m / info.dense_step_m : 1.0f;
+  stride = ratio > 1.0f ? uint32_t(ratio * ratio) : 1u;
+  cos_inc = std::cos(params.max_incidence_deg * (ppf::kPi / 180.0f));
+  tol = params.rest_height_tol_m;
+  inv_cell = 1.0f / rs.cell_m;
+  B.col(0) = rs.a0;
+  B.col(1) = rs.a1;
+  B.col(2) = me.ctx_.up.normalized();
+  cells = std::size_t(rs.w) * std::size_t(rs.h);
+  touched = me.b_.queue + chunk * (me.b_.scene_points_max / kVoteAccumulators);
+  touched_cap = me.b_.scene_points_max / kVoteAccumulators;
+  std::memset(acc, 0, sizeof(uint16_t) * cells);
+}
+
+void Localizer::RestVoter::enter_face(int f) {
+  face = f;
+  Q = rest_rotation(info.rest_down[f]);
+  zmin = 1e30f;
+  for (uint32_t i = 0; i < info.dense_count; ++i) zmin = std::min(zmin, Q.row(2).dot(dense[i].p));
+  c = Q * info.centre_m;
+}
+
+std::size_t Localizer::RestVoter::vote(float cy, float sy) const {
+  std::size_t nt = 0;
+  for (uint32_t i = 0; i < info.dense_count; i += stride) {
+    // Surface a sensor above the bin can see (facing up within the incidence limit), above the
+    // floor band that bin removal took away.
+    if ((Q.row(2).dot(dense[i].n)) < cos_inc) continue;
+    const Vec3f q = Q * dense[i].p;
+    const float height = q.z() - zmin;
+    if (height < params.floor_tol_m) continue;
+    const float rx = cy * (q.x() - c.x()) - sy * (q.y() - c.y());
+    const float ry = sy * (q.x() - c.x()) + cy * (q.y() - c.y());
+    const int kb = floor_int(height / rs.bin_m);
+    const int b0 = std::max(kb - 1, 0), b1 = std::min(kb + 1, kRestHeightBins - 1);
+    if (b0 > b1) continue;
+    for (uint32_t s = rs.bins[b0]; s < rs.bins[b1 + 1]; ++s) {
+      const float* o = packed + 3 * std::size_t(s);
+      if (std::fabs(o[2] - height) > tol) continue;
+      const int gx = floor_int((o[0] - rx - rs.origin[0]) * inv_cell);
+      const int gy = floor_int((o[1] - ry - rs.origin[1]) * inv_cell);
+      if (gx < 0 || gy < 0 || gx >= rs.w || gy >= rs.h) continue;
+      const std::size_t cell = std::size_t(gy) * std::size_t(rs.w) + std::size_t(gx);
+      uint16_t& v = acc[cell];
+      if (v == 0 && nt++ < touched_cap) touched[nt - 1] = uint32_t(cell);
+      if (v < 65535) ++v;
     }
-    const float cy = std::cos(yaw), sy = std::sin(yaw);
-    std::size_t nt = 0;
-    for (uint32_t i = 0; i < info.dense_count; i += stride) {
-      // Surface a sensor above the bin can see (facing up within the incidence limit), above the
-      // floor band that bin removal took away.
-      if ((Q.row(2).dot(dense[i].n)) < cos_inc) continue;
-      const Vec3f q = Q * dense[i].p;
-      const float height = q.z() - zmin;
-      if (height < params.floor_tol_m) continue;
-      const float rx = cy * (q.x() - c.x()) - sy * (q.y() - c.y());
-      const float ry = sy * (q.x() - c.x()) + cy * (q.y() - c.y());
-      const int kb = floor_int(height / rs.bin_m);
-      const int b0 = std::max(kb - 1, 0), b1 = std::min(kb + 1, kRestHeightBins - 1);
-      if (b0 > b1) continue;
-      for (uint32_t s = rs.bins[b0]; s < rs.bins[b1 + 1]; ++s) {
-        const float* o = packed + 3 * std::size_t(s);
-        if (std::fabs(o[2] - height) > tol) continue;
-        const int gx = floor_int((o[0] - rx - rs.origin[0]) * inv_cell);
-        const int gy = floor_int((o[1] - ry - rs.origin[1]) * inv_cell);
-        if (gx < 0 || gy < 0 || gx >= rs.w || gy >= rs.h) continue;
-        const std::size_t cell = std::size_t(gy) * std::size_t(rs.w) + std::size_t(gx);
-        uint16_t& v = acc[cell];
-        if (v == 0 && nt++ < touched_cap) touched[nt - 1] = uint32_t(cell);
-        if (v < 65535) ++v;
-      }
-    }
-    const bool listed = nt <= touched_cap;
-    // The strongest cells (the second at least 3 cells from the first); the candidate's votes are
-    // its 3 x 3 neighbourhood, its position their weighted centre.
-    int px[kPeaksPerJob] = {-1, -1}, py[kPeaksPerJob] = {-1, -1};
-    for (int k = 0; k < kPeaksPerJob; ++k) {
-      uint16_t best = 0;
-      std::size_t best_cell = cells;
-      const std::size_t n_scan = listed ? nt : cells;
-      for (std::size_t e = 0; e < n_scan; ++e) {
-        const std::size_t cell = listed ? touched[e] : e;
-        const uint16_t v = acc[cell];
-        if (v < best || v == 0 || (v == best && cell > best_cell)) continue;
-        const int x = int(cell % std::size_t(rs.w)), y = int(cell / std::size_t(rs.w));
-        bool near = false;
-        for (int p = 0; p < k && !near; ++p) near = std::abs(x - px[p]) <= 3 && std::abs(y - py[p]) <= 3;
-        if (near) continue;
-        best = v;
-        best_cell = cell;
-        px[k] = x;
-        py[k] = y;
-      }
-      PoseCandidate& out = me.b_.candidates[kPeaksPerJob * j + std::size_t(k)];
-      out.votes = 0;
-      if (best < 3) continue;
-      float sw = 0, sx = 0, sy2 = 0;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int x = px[k] + dx, y = py[k] + dy;
-          if (x < 0 || y < 0 || x >= rs.w || y >= rs.h) continue;
-          const float v = float(acc[std::size_t(y) * std::size_t(rs.w) + std::size_t(x)]);
-          sw += v;
-          sx += v * float(x);
-          sy2 += v * float(y);
-        }
-      const float ux = rs.origin[0] + (sx / sw + 0.5f) * rs.cell_m, uy = rs.origin[1] + (sy2 / sw + 0.5f) * rs.cell_m;
-      Mat3f Rz;
-      Rz << cy, -sy, 0, sy, cy, 0, 0, 0, 1;
-      // World = B * (Rz * (Q p) + t_c): the model centre's column lands on (ux, uy), the resting
-      // face on the floor (height = up . x + floor_offset).
-      const Vec3f rc = Rz * c;
-      const Vec3f t_c(ux - rc.x(), uy - rc.y(), -zmin - me.ctx_.floor_offset);
-      out.T_world_object.R = B * Rz * Q;
-      out.T_world_object.t = B * t_c;
-      out.votes = sw;
-      out.model = m;
-    }
-    if (listed)
-      for (std::size_t e = 0; e < nt; ++e) acc[touched[e]] = 0;
-    else
-      std::memset(acc, 0, sizeof(uint16_t) * cells);
   }
+  return nt;
+}
+
+uint16_t Localizer::RestVoter::strongest_cell(int k, std::size_t nt, bool listed, int* px, int* py) const {
+  uint16_t best = 0;
+  std::size_t best_cell = cells;
+  const std::size_t n_scan = listed ? nt : cells;
+  for (std::size_t e = 0; e < n_scan; ++e) {
+    const std::size_t cell = listed ? touched[e] : e;
+    const uint16_t v = acc[cell];
+    if (v < best || v == 0 || (v == best && cell > best_cell)) continue;
+    const int x = int(cell % std::size_t(rs.w)), y = int(cell / std::size_t(rs.w));
+    bool near = false;
+    for (int p = 0; p < k && !near; ++p) near = std::abs(x - px[p]) <= 3 && std::abs(y - py[p]) <= 3;
+    if (near) continue;
+    best = v;
+    best_cell = cell;
+    px[k] = x;
+    py[k] = y;
+  }
+  return best;
+}
+
+void Localizer::RestVoter::write_candidate(int x0, int y0, float cy, float sy, PoseCandidate& out) const {
+  float sw = 0, sx = 0, sy2 = 0;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int x = x0 + dx, y = y0 + dy;
+      if (x < 0 || y < 0 || x >= rs.w || y >= rs.h) continue;
+      const float v = float(acc[std::size_t(y) * std::size_t(rs.w) + std::size_t(x)]);
+      sw += v;
+      sx += v * float(x);
+      sy2 += v * float(y);
+    }
+  const float ux = rs.origin[0] + (sx / sw + 0.5f) * rs.cell_m, uy = rs.origin[1] + (sy2 / sw + 0.5f) * rs.cell_m;
+  Mat3f Rz;
+  Rz << cy, -sy, 0, sy, cy, 0, 0, 0, 1;
+  // World = B * (Rz * (Q p) + t_c): the model centre's column lands on (ux, uy), the resting
+  // face on the floor (height = up . x + floor_offset).
+  const Vec3f rc = Rz * c;
+  const Vec3f t_c(ux - rc.x(), uy - rc.y(), -zmin - me.ctx_.floor_offset);
+  out.T_world_object.R = B * Rz * Q;
+  out.T_world_object.t = B * t_c;
+  out.votes = sw;
+  out.model = m;
+}
+
+void Localizer::RestVoter::run(std::size_t j) {
+  const int f = int(j / std::size_t(rs.yaw_steps));
+  const float yaw = 2.0f * ppf::kPi * float(j % std::size_t(rs.yaw_steps)) / float(rs.yaw_steps);
+  if (f != face) enter_face(f);
+  const float cy = std::cos(yaw), sy = std::sin(yaw);
+  const std::size_t nt = vote(cy, sy);
+  const bool listed = nt <= touched_cap;
+  int px[kPeaksPerJob] = {-1, -1}, py[kPeaksPerJob] = {-1, -1};
+  for (int k = 0; k < kPeaksPerJob; ++k) {
+    const uint16_t best = strongest_cell(k, nt, listed, px, py);
+    PoseCandidate& out = me.b_.candidates[kPeaksPerJob * j + std::size_t(k)];
+    out.votes = 0;
+    if (best >= 3) write_candidate(px[k], py[k], cy, sy, out);
+  }
+  if (listed)
+    for (std::size_t e = 0; e < nt; ++e) acc[touched[e]] = 0;
+  else
+    std::memset(acc, 0, sizeof(uint16_t) * cells);
+}
+
+void Localizer::rest_vote_job(void* self, std::size_t chunk) {
+  RestVoter voter(*static_cast<const Localizer*>(self), chunk);
+  const std::size_t jobs = std::size_t(voter.rs.faces) * std::size_t(voter.rs.yaw_steps);
+  const std::size_t lo = chunk * jobs / kVoteAccumulators, hi = (chunk + 1) * jobs / kVoteAccumulators;
+  for (std::size_t j = lo; j < hi; ++j) voter.run(j);
 }
 
 std::size_t Localizer::queue_rest_hypotheses(int m, const LocalizeParams& params, std::size_t first) {

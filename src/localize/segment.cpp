@@ -231,10 +231,7 @@ bool Localizer::merge_small_segments(const LocalizeParams& params, std::size_t l
   return merged;
 }
 
-Status Localizer::segment(const LocalizeParams& params, int max_results, std::size_t& count) {
-  count = 0;
-  if (!b_.scene) return Status::kNotInitialised;
-  if (max_results > b_.objects_max) max_results = b_.objects_max;
+int32_t Localizer::label_segments(const LocalizeParams& params) {
   const std::size_t n = scene_count_;
   for (std::size_t i = 0; i < n; ++i) b_.labels[i] = 0;
   const bool creases = params.segment_crease_deg > 0;
@@ -247,8 +244,13 @@ Status Localizer::segment(const LocalizeParams& params, int max_results, std::si
       if (b_.labels[i] == kCrease) b_.labels[i] = 0;
     label = grow_regions(params, label);
   }
+  return label;
+}
+
+std::size_t Localizer::group_by_label(const LocalizeParams& params, int32_t& label) {
   // Members of each segment contiguous in queue[]: counting sort by label (sample[] = end offsets).
   // Only when every point is its own segment can a label reach the array's size: that one is dropped.
+  const std::size_t n = scene_count_;
   if (std::size_t(label) >= b_.scene_points_max) {
     for (std::size_t i = 0; i < n; ++i)
       if (std::size_t(b_.labels[i]) >= b_.scene_points_max) b_.labels[i] = 0;
@@ -257,86 +259,111 @@ Status Localizer::segment(const LocalizeParams& params, int max_results, std::si
   const std::size_t labels_n = std::min<std::size_t>(std::size_t(label) + 1, b_.scene_points_max);
   sort_by_label(labels_n);
   if (params.segment_merge_small && merge_small_segments(params, labels_n)) sort_by_label(labels_n);
-  for (std::size_t l = 1; l < labels_n; ++l) {
-    const std::size_t start = b_.sample[l - 1], tail = b_.sample[l];
-    // The segment is queue[start, tail): keep it if large enough.
-    const int32_t seg_label = int32_t(l);
-    const std::size_t size = tail - start;
-    if (size < std::size_t(params.segment_min_points)) continue;
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (std::size_t q = start; q < tail; ++q) mean += b_.scene[b_.queue[q]].p.cast<double>();
-    mean /= double(size);
-    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-    for (std::size_t q = start; q < tail; ++q) {
-      const Eigen::Vector3d v = b_.scene[b_.queue[q]].p.cast<double>() - mean;
-      cov += v * v.transpose();
-    }
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-    Mat3f R = es.eigenvectors().cast<float>();  // columns: smallest .. largest spread
-    // Box axes: x = largest spread, z = the remaining axis turned towards `up`, right-handed.
-    Vec3f ax = R.col(2), az = R.col(0);
-    if (az.dot(ctx_.up) < 0) az = -az;
-    Vec3f ay = az.cross(ax);
-    Mat3f B;
-    B.col(0) = ax;
-    B.col(1) = ay;
-    B.col(2) = az;
-    Vec3f lo = Vec3f::Constant(1e9f), hi = Vec3f::Constant(-1e9f);
-    const Vec3f c = mean.cast<float>();
-    float top = -1e9f, best_g = -1e9f;
-    Vec3f grasp = c, approach = -ctx_.up;
-    for (std::size_t q = start; q < tail; ++q) {
-      const ScenePoint& s = b_.scene[b_.queue[q]];
-      const Vec3f l = B.transpose() * (s.p - c);
-      lo = lo.cwiseMin(l);
-      hi = hi.cwiseMax(l);
-      const float height = ctx_.has_floor ? ctx_.up.dot(s.p) + ctx_.floor_offset : ctx_.up.dot(s.p);
-      top = std::max(top, height);
-      if (s.n.dot(ctx_.up) > 0.8f) {
-        const Vec3f off = s.p - c;
-        const float g = height - 0.5f * (off - ctx_.up * off.dot(ctx_.up)).norm();
-        if (g > best_g) {
-          best_g = g;
-          grasp = s.p;
-          approach = -s.n;
-        }
+  return labels_n;
+}
+
+void Localizer::segment_box_frame(std::size_t start, std::size_t tail, Vec3f& centre, Mat3f& B) const {
+  const std::size_t size = tail - start;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (std::size_t q = start; q < tail; ++q) mean += b_.scene[b_.queue[q]].p.cast<double>();
+  mean /= double(size);
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (std::size_t q = start; q < tail; ++q) {
+    const Eigen::Vector3d v = b_.scene[b_.queue[q]].p.cast<double>() - mean;
+    cov += v * v.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  Mat3f R = es.eigenvectors().cast<float>();  // columns: smallest .. largest spread
+  // Box axes: x = largest spread, z = the remaining axis turned towards `up`, right-handed.
+  Vec3f ax = R.col(2), az = R.col(0);
+  if (az.dot(ctx_.up) < 0) az = -az;
+  Vec3f ay = az.cross(ax);
+  B.col(0) = ax;
+  B.col(1) = ay;
+  B.col(2) = az;
+  centre = mean.cast<float>();
+}
+
+LocalizedObject Localizer::describe_segment(std::size_t start, std::size_t tail, int32_t seg_label) const {
+  Vec3f c;
+  Mat3f B;
+  segment_box_frame(start, tail, c, B);
+  Vec3f lo = Vec3f::Constant(1e9f), hi = Vec3f::Constant(-1e9f);
+  float top = -1e9f, best_g = -1e9f;
+  Vec3f grasp = c, approach = -ctx_.up;
+  for (std::size_t q = start; q < tail; ++q) {
+    const ScenePoint& s = b_.scene[b_.queue[q]];
+    const Vec3f l = B.transpose() * (s.p - c);
+    lo = lo.cwiseMin(l);
+    hi = hi.cwiseMax(l);
+    const float height = ctx_.has_floor ? ctx_.up.dot(s.p) + ctx_.floor_offset : ctx_.up.dot(s.p);
+    top = std::max(top, height);
+    if (s.n.dot(ctx_.up) > 0.8f) {
+      const Vec3f off = s.p - c;
+      const float g = height - 0.5f * (off - ctx_.up * off.dot(ctx_.up)).norm();
+      if (g > best_g) {
+        best_g = g;
+        grasp = s.p;
+        approach = -s.n;
       }
-    }
-    if (best_g == -1e9f) {  // no top-facing surface: the highest point, approached from above
-      for (std::size_t q = start; q < tail; ++q) {
-        const ScenePoint& s = b_.scene[b_.queue[q]];
-        const float height = ctx_.has_floor ? ctx_.up.dot(s.p) + ctx_.floor_offset : ctx_.up.dot(s.p);
-        if (height >= top) grasp = s.p;
-      }
-    }
-    LocalizedObject o;
-    o.model = -1;
-    o.segment = seg_label;
-    o.T_world_object.R = B;
-    o.T_world_object.t = c + B * (0.5f * (lo + hi));
-    o.score = 1.0f;
-    o.grasp_m = grasp;
-    o.approach = approach;
-    o.size_m = hi - lo;
-    o.top_m = top;
-    o.support = uint32_t(size);
-    if (count < std::size_t(max_results)) {
-      b_.results[count++] = o;
-    } else {  // full: replace the last in picking order if this one comes earlier
-      std::size_t worst = 0;
-      for (std::size_t w = 1; w < count; ++w)
-        if (picking_key(b_.results[w]) < picking_key(b_.results[worst])) worst = w;
-      if (picking_key(o) > picking_key(b_.results[worst])) b_.results[worst] = o;
     }
   }
-  sort_picking_order(count);
+  if (best_g == -1e9f) {  // no top-facing surface: the highest point, approached from above
+    for (std::size_t q = start; q < tail; ++q) {
+      const ScenePoint& s = b_.scene[b_.queue[q]];
+      const float height = ctx_.has_floor ? ctx_.up.dot(s.p) + ctx_.floor_offset : ctx_.up.dot(s.p);
+      if (height >= top) grasp = s.p;
+    }
+  }
+  LocalizedObject o;
+  o.model = -1;
+  o.segment = seg_label;
+  o.T_world_object.R = B;
+  o.T_world_object.t = c + B * (0.5f * (lo + hi));
+  o.score = 1.0f;
+  o.grasp_m = grasp;
+  o.approach = approach;
+  o.size_m = hi - lo;
+  o.top_m = top;
+  o.support = uint32_t(tail - start);
+  return o;
+}
+
+void Localizer::keep_in_picking_order(const LocalizedObject& o, int max_results, std::size_t& count) const {
+  if (count < std::size_t(max_results)) {
+    b_.results[count++] = o;
+  } else {  // full: replace the last in picking order if this one comes earlier
+    std::size_t worst = 0;
+    for (std::size_t w = 1; w < count; ++w)
+      if (picking_key(b_.results[w]) < picking_key(b_.results[worst])) worst = w;
+    if (picking_key(o) > picking_key(b_.results[worst])) b_.results[worst] = o;
+  }
+}
+
+void Localizer::label_by_picking_rank(int32_t label, std::size_t count) {
   // Labels: picking rank (1 = first) for reported segments, 0 for the rest. `sample` maps raw labels.
   for (int32_t l = 0; l <= label && std::size_t(l) < b_.scene_points_max; ++l) b_.sample[l] = 0;
   for (std::size_t i = 0; i < count; ++i) {
     b_.sample[b_.results[i].segment] = uint32_t(i + 1);
     b_.results[i].segment = int(i + 1);
   }
-  for (std::size_t i = 0; i < n; ++i) b_.labels[i] = int32_t(b_.sample[b_.labels[i]]);
+  for (std::size_t i = 0; i < scene_count_; ++i) b_.labels[i] = int32_t(b_.sample[b_.labels[i]]);
+}
+
+Status Localizer::segment(const LocalizeParams& params, int max_results, std::size_t& count) {
+  count = 0;
+  if (!b_.scene) return Status::kNotInitialised;
+  if (max_results > b_.objects_max) max_results = b_.objects_max;
+  int32_t label = label_segments(params);
+  const std::size_t labels_n = group_by_label(params, label);
+  for (std::size_t l = 1; l < labels_n; ++l) {
+    // Segment l is queue[sample[l - 1], sample[l]): kept if large enough.
+    const std::size_t start = b_.sample[l - 1], tail = b_.sample[l];
+    if (tail - start < std::size_t(params.segment_min_points)) continue;
+    keep_in_picking_order(describe_segment(start, tail, int32_t(l)), max_results, count);
+  }
+  sort_picking_order(count);
+  label_by_picking_rank(label, count);
   return Status::kOk;
 }
 

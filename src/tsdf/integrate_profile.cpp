@@ -36,6 +36,152 @@ bool fan_voxel_box(const TsdfVolume& volume, const LineScannerModel& model, cons
   return true;
 }
 
+// What the voxel loop reads: the world-to-sensor pose and the profile's constants in the kernel's
+// number type. Built once per profile and held in a local of integrate_profile, so the voxel
+// stores (uint8_t may alias anything) do not make the loop reload them.
+template <class Real>
+struct ProfileKernel {
+  Real R[9], t[3];  // world to sensor
+  Real zero, band, min_r, max_r, trunc, inv_trunc, eps, rho, band_to_index, reach, near_z, q_scale;
+  const Real* tan_t;  // per beam, increasing
+  int last;           // the last beam
+  const float* ranges_m;
+  uint32_t trust_q8;
+  int32_t full_weight;  // of a sample in front of the surface
+  const uint16_t* shape;
+  uint8_t max_weight;
+};
+
+template <class Real>
+ProfileKernel<Real> profile_kernel(const TsdfVolume& volume, const LineScannerModel& model,
+                                   const LineScannerTables<Real>& tables, const float* ranges_m,
+                                   const Pose& T_world_sensor, float band_m, float trust) {
+  const TsdfParams& p = volume.params();
+  ProfileKernel<Real> k;
+  const Pose T_sensor_world = T_world_sensor.inverse();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) k.R[r * 3 + c] = real_from<Real>(T_sensor_world.R(r, c));
+    k.t[r] = real_from<Real>(T_sensor_world.t(r));
+  }
+  k.zero = real_from_int<Real>(0);
+  k.band = real_from<Real>(band_m);
+  k.min_r = real_from<Real>(model.min_range_m);
+  k.max_r = real_from<Real>(model.max_range_m);
+  k.trunc = real_from<Real>(p.trunc_m);
+  k.inv_trunc = real_from<Real>(1.0f / p.trunc_m);
+  k.eps = real_from<Real>(p.weight.eps_m);
+  k.rho = real_from<Real>(p.weight.rho_m);
+  k.band_to_index = real_from<Real>(float(WeightTable::kSize) / (p.weight.rho_m - p.weight.eps_m));
+  k.reach = k.max_r + k.trunc;
+  k.near_z = real_from<Real>(p.voxel_m);  // no division by ~0 near the sensor
+  k.q_scale = real_from<Real>(float(kTsdfMax));
+  k.tan_t = tables.tan_theta;
+  k.last = model.beams - 1;
+  k.ranges_m = ranges_m;
+  k.trust_q8 = uint32_t(std::lround(trust * 256.0f)) > 0 ? uint32_t(std::lround(trust * 256.0f)) : 1u;
+  // A sample weighs at most 255 units (trust kProfileTrustMax): the running average's divisor stays
+  // within the reciprocal table (old + new <= 510) and |value x weight| sums within 2^24.
+  const int32_t full_weight_raw =
+      int32_t((uint32_t(WeightTable::kOne) * k.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
+  k.full_weight = full_weight_raw > 255 ? 255 : full_weight_raw;
+  k.shape = volume.weight_table().shape;
+  k.max_weight = p.max_weight;
+  return k;
+}
+
+// The profile's range at `ratio` (x / z in the sensor frame): between the two beams around it
+// (bisection on tan(theta), eq. 8 without atan), interpolated when both are valid and within a
+// truncation of each other, else the nearer beam's; false when that one has no valid range.
+template <class Real>
+inline bool profile_range(const ProfileKernel<Real>& k, Real ratio, Real& m) {
+  const Real* tan_t = k.tan_t;
+  int a = 0, b = k.last;
+  while (b - a > 1) {
+    const int mid = (a + b) >> 1;
+    if (tan_t[mid] <= ratio) a = mid; else b = mid;
+  }
+  const Real f = (ratio - tan_t[a]) / (tan_t[b] - tan_t[a]);
+  const Real ra = real_from<Real>(k.ranges_m[a]), rb = real_from<Real>(k.ranges_m[b]);
+  const bool va = k.ranges_m[a] > 0.0f && ra >= k.min_r && ra <= k.max_r;
+  const bool vb = k.ranges_m[b] > 0.0f && rb >= k.min_r && rb <= k.max_r;
+  const Real jump = ra > rb ? ra - rb : rb - ra;
+  if (va && vb && jump <= k.trunc) {
+    m = ra + (rb - ra) * f;
+  } else {
+    const bool near_a = f < real_from<Real>(0.5f);
+    if (near_a ? !va : !vb) return false;
+    m = near_a ? ra : rb;
+  }
+  return true;
+}
+
+// The sample of the voxel centred at w (world): its distance d along the beam to the surface and
+// its weight wt. False when the voxel lies outside the profile's slab, fan or reach, its beams have
+// no valid range, or it is too far behind the surface.
+template <class Real>
+inline bool profile_sample(const ProfileKernel<Real>& k, const Real w[3], Real& d, int32_t& wt) {
+  const Real* R = k.R;
+  const Real py = R[3] * w[0] + R[4] * w[1] + R[5] * w[2] + k.t[1];
+  if (py > k.band || py < k.zero - k.band) return false;  // not in this profile's slab (eq. 8)
+  const Real pz = R[6] * w[0] + R[7] * w[1] + R[8] * w[2] + k.t[2];
+  if (pz < k.near_z) return false;
+  const Real px = R[0] * w[0] + R[1] * w[1] + R[2] * w[2] + k.t[0];
+  const Real ratio = px / pz;
+  if (ratio < k.tan_t[0] || ratio > k.tan_t[k.last]) return false;  // outside the fan
+  const Real range = real_sqrt(px * px + pz * pz);
+  if (range > k.reach) return false;
+  Real m;
+  if (!profile_range(k, ratio, m)) return false;
+  d = m - range;  // eq. (1) along the beam
+  if (d <= k.zero - k.rho) return false;
+  wt = k.full_weight;
+  if (d < k.zero - k.eps) {
+    int32_t i = floor_int((k.zero - d - k.eps) * k.band_to_index);
+    i = i < 0 ? 0 : (i >= WeightTable::kSize ? WeightTable::kSize - 1 : i);
+    wt = int32_t((k.shape[i] * k.trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
+    wt = wt > 255 ? 255 : wt;
+    if (wt == 0) return false;
+  }
+  return true;
+}
+
+// The voxels of brick (bx, by, bz) within [lo, hi] updated from the profile: false when none was;
+// `surface` when one of them holds a distance inside the band. Counts them into `updated`.
+template <class Real>
+inline bool integrate_profile_brick(TsdfVolume& volume, const ProfileKernel<Real>& k, const int lo[3],
+                                    const int hi[3], int bx, int by, int bz, bool& surface, int& updated) {
+  const TsdfParams& p = volume.params();
+  int16_t* tsdf = volume.tsdf();
+  uint8_t* weight = volume.weight();
+  bool observed = false;
+  const int z_end = (bz << 3) + 7 < hi[2] ? (bz << 3) + 7 : hi[2];
+  const int y_end = (by << 3) + 7 < hi[1] ? (by << 3) + 7 : hi[1];
+  const int x_end = (bx << 3) + 7 < hi[0] ? (bx << 3) + 7 : hi[0];
+  for (int z = (bz << 3) > lo[2] ? (bz << 3) : lo[2]; z <= z_end; ++z)
+    for (int y = (by << 3) > lo[1] ? (by << 3) : lo[1]; y <= y_end; ++y)
+      for (int x = (bx << 3) > lo[0] ? (bx << 3) : lo[0]; x <= x_end; ++x) {
+        // Voxel centre from the exact voxel size (as integrate.cpp), then into the sensor frame.
+        const Real w[3] = {real_from<Real>(volume.origin_m()(0) + (float(x) + 0.5f) * p.voxel_m),
+                           real_from<Real>(volume.origin_m()(1) + (float(y) + 0.5f) * p.voxel_m),
+                           real_from<Real>(volume.origin_m()(2) + (float(z) + 0.5f) * p.voxel_m)};
+        Real d;
+        int32_t wt;
+        if (!profile_sample(k, w, d, wt)) continue;
+        int32_t q = d >= k.trunc ? kTsdfMax : round_int(d * k.inv_trunc * k.q_scale);
+        q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
+        const std::size_t idx = volume.index(x, y, z);
+        const int32_t old_w = weight[idx];
+        if (old_w == k.max_weight && tsdf[idx] == kTsdfMax && q == kTsdfMax) continue;
+        const int32_t value = old_w == 0 ? q : voxel_update::blend(tsdf[idx], old_w, q, wt);
+        tsdf[idx] = int16_t(value);
+        weight[idx] = voxel_update::cap_weight(old_w + wt, k.max_weight);
+        observed = true;
+        surface = surface || (value < kTsdfMax && value > -kTsdfMax);
+        ++updated;
+      }
+  return observed;
+}
+
 }  // namespace
 
 template <class Real>
@@ -49,108 +195,20 @@ Status integrate_profile(TsdfVolume& volume, const LineScannerModel& model, cons
   if (!T_world_sensor.R.allFinite() || !T_world_sensor.t.allFinite()) return Status::kInvalidArgument;
   if (stats != nullptr) *stats = ProfilePushStats{};
 
-  const TsdfParams& p = volume.params();
-  const float band_m = plane_band_m > 0.0f ? plane_band_m : 0.5f * p.voxel_m;
+  const float band_m = plane_band_m > 0.0f ? plane_band_m : 0.5f * volume.params().voxel_m;
   int lo[3], hi[3];
   uint32_t* list = volume.brick_list();
   if (!fan_voxel_box(volume, model, T_world_sensor, band_m, lo, hi)) return Status::kOk;
-
-  const Pose T_sensor_world = T_world_sensor.inverse();
-  Real R[9], t[3];
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) R[r * 3 + c] = real_from<Real>(T_sensor_world.R(r, c));
-    t[r] = real_from<Real>(T_sensor_world.t(r));
-  }
-  const Real zero = real_from_int<Real>(0);
-  const Real band = real_from<Real>(band_m);
-  const Real min_r = real_from<Real>(model.min_range_m), max_r = real_from<Real>(model.max_range_m);
-  const Real trunc = real_from<Real>(p.trunc_m), inv_trunc = real_from<Real>(1.0f / p.trunc_m);
-  const Real eps = real_from<Real>(p.weight.eps_m), rho = real_from<Real>(p.weight.rho_m);
-  const Real band_to_index = real_from<Real>(float(WeightTable::kSize) / (p.weight.rho_m - p.weight.eps_m));
-  const Real reach = max_r + trunc;
-  const Real near_z = real_from<Real>(p.voxel_m);  // no division by ~0 near the sensor
-  const Real q_scale = real_from<Real>(float(kTsdfMax));
-  const Real* tan_t = tables.tan_theta;
-  const int last = model.beams - 1;
-  const uint32_t trust_q8 = uint32_t(std::lround(trust * 256.0f)) > 0 ? uint32_t(std::lround(trust * 256.0f)) : 1u;
-  // A sample weighs at most 255 units (trust kProfileTrustMax): the running average's divisor stays
-  // within the reciprocal table (old + new <= 510) and |value x weight| sums within 2^24.
-  const int32_t full_weight_raw = int32_t((uint32_t(WeightTable::kOne) * trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
-  const int32_t full_weight = full_weight_raw > 255 ? 255 : full_weight_raw;
-  const uint16_t* shape = volume.weight_table().shape;
-  const uint8_t max_weight = p.max_weight;
-  int16_t* tsdf = volume.tsdf();
-  uint8_t* weight = volume.weight();
+  const ProfileKernel<Real> k = profile_kernel(volume, model, tables, ranges_m, T_world_sensor, band_m, trust);
   uint8_t* flags = volume.brick_flags();
-
   std::size_t listed = 0;
   int updated = 0;
   for (int bz = lo[2] >> 3; bz <= hi[2] >> 3; ++bz)
     for (int by = lo[1] >> 3; by <= hi[1] >> 3; ++by)
       for (int bx = lo[0] >> 3; bx <= hi[0] >> 3; ++bx) {
         const std::size_t brick = volume.brick_index(bx, by, bz);
-        bool observed = false, surface = false;
-        const int z_end = (bz << 3) + 7 < hi[2] ? (bz << 3) + 7 : hi[2];
-        const int y_end = (by << 3) + 7 < hi[1] ? (by << 3) + 7 : hi[1];
-        const int x_end = (bx << 3) + 7 < hi[0] ? (bx << 3) + 7 : hi[0];
-        for (int z = (bz << 3) > lo[2] ? (bz << 3) : lo[2]; z <= z_end; ++z)
-          for (int y = (by << 3) > lo[1] ? (by << 3) : lo[1]; y <= y_end; ++y)
-            for (int x = (bx << 3) > lo[0] ? (bx << 3) : lo[0]; x <= x_end; ++x) {
-              // Voxel centre from the exact voxel size (as integrate.cpp), then into the sensor frame.
-              const Real w[3] = {real_from<Real>(volume.origin_m()(0) + (float(x) + 0.5f) * p.voxel_m),
-                                 real_from<Real>(volume.origin_m()(1) + (float(y) + 0.5f) * p.voxel_m),
-                                 real_from<Real>(volume.origin_m()(2) + (float(z) + 0.5f) * p.voxel_m)};
-              const Real py = R[3] * w[0] + R[4] * w[1] + R[5] * w[2] + t[1];
-              if (py > band || py < zero - band) continue;  // not in this profile's slab (eq. 8)
-              const Real pz = R[6] * w[0] + R[7] * w[1] + R[8] * w[2] + t[2];
-              if (pz < near_z) continue;
-              const Real px = R[0] * w[0] + R[1] * w[1] + R[2] * w[2] + t[0];
-              const Real ratio = px / pz;
-              if (ratio < tan_t[0] || ratio > tan_t[last]) continue;  // outside the fan
-              const Real range = real_sqrt(px * px + pz * pz);
-              if (range > reach) continue;
-              // Beam of the voxel: bisection on tan(theta) (eq. 8 without atan).
-              int a = 0, b = last;
-              while (b - a > 1) {
-                const int mid = (a + b) >> 1;
-                if (tan_t[mid] <= ratio) a = mid; else b = mid;
-              }
-              const Real f = (ratio - tan_t[a]) / (tan_t[b] - tan_t[a]);
-              const Real ra = real_from<Real>(ranges_m[a]), rb = real_from<Real>(ranges_m[b]);
-              const bool va = ranges_m[a] > 0.0f && ra >= min_r && ra <= max_r;
-              const bool vb = ranges_m[b] > 0.0f && rb >= min_r && rb <= max_r;
-              Real m;
-              const Real jump = ra > rb ? ra - rb : rb - ra;
-              if (va && vb && jump <= trunc) {
-                m = ra + (rb - ra) * f;
-              } else {
-                const bool near_a = f < real_from<Real>(0.5f);
-                if (near_a ? !va : !vb) continue;
-                m = near_a ? ra : rb;
-              }
-              const Real d = m - range;  // eq. (1) along the beam
-              if (d <= zero - rho) continue;
-              int32_t wt = full_weight;
-              if (d < zero - eps) {
-                int32_t k = floor_int((zero - d - eps) * band_to_index);
-                k = k < 0 ? 0 : (k >= WeightTable::kSize ? WeightTable::kSize - 1 : k);
-                wt = int32_t((shape[k] * trust_q8 * kWeightUnitsPerSample + 32768u) >> 16);
-                wt = wt > 255 ? 255 : wt;
-                if (wt == 0) continue;
-              }
-              int32_t q = d >= trunc ? kTsdfMax : round_int(d * inv_trunc * q_scale);
-              q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
-              const std::size_t idx = volume.index(x, y, z);
-              const int32_t old_w = weight[idx];
-              if (old_w == max_weight && tsdf[idx] == kTsdfMax && q == kTsdfMax) continue;
-              const int32_t value = old_w == 0 ? q : voxel_update::blend(tsdf[idx], old_w, q, wt);
-              tsdf[idx] = int16_t(value);
-              weight[idx] = voxel_update::cap_weight(old_w + wt, max_weight);
-              observed = true;
-              surface = surface || (value < kTsdfMax && value > -kTsdfMax);
-              ++updated;
-            }
-        if (!observed) continue;
+        bool surface = false;
+        if (!integrate_profile_brick(volume, k, lo, hi, bx, by, bz, surface, updated)) continue;
         flags[brick] |= surface ? (kBrickObserved | kBrickSurface) : kBrickObserved;
         if (flags[brick] & kBrickSurface) block_mask::refresh(volume, brick);
         list[listed++] = uint32_t(brick);

@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "args.hpp"
+#include "failure.hpp"
 #include "commands.hpp"
 #include "edgefuse/board_config.hpp"
 #include "edgefuse/io/board_hal.hpp"
@@ -37,158 +38,205 @@ hal::ProfileChannelStorage<1024, 15> g_profile_pool;
 hal::AcquisitionCounters g_profile_counters;
 hal::ProfileChannel g_profiles;
 
-int usage(const char* why) {
-  std::fprintf(stderr,
-               "edgefuse acquire: %s\nusage: edgefuse acquire [--board NAME] [--seconds S] [--replay DATASET] "
-               "[--fault stall|drop|garbage|unplug] [--fault-at S]\n",
-               why);
-  return 2;
-}
-}  // namespace
+const char* kUsage =
+    "usage: edgefuse acquire [--board NAME] [--seconds S] [--replay DATASET] "
+    "[--fault stall|drop|garbage|unplug] [--fault-at S]\n";
 
-int cmd_acquire(int argc, char** argv) {
+// What the command line asks for.
+struct AcquireOptions {
   Args args;
-  std::string err;
-  if (!args.parse(argc, argv, {"board", "seconds", "replay", "fault", "fault-at"}, {}, err))
-    return usage(err.c_str());
-  if (!args.positional().empty()) return usage("unexpected argument");
   int seconds = 5;
   float fault_at = 2.0f;
-  if (!args.get_int("seconds", 1, 86400, seconds, err) || !args.get_float("fault-at", 0, 86400, fault_at, err))
-    return usage(err.c_str());
-  const std::string fault = args.get("fault");
-  if (!fault.empty() && fault != "stall" && fault != "drop" && fault != "garbage" && fault != "unplug")
-    return usage(("--fault '" + fault + "' is not stall, drop, garbage or unplug").c_str());
-  const std::string board = args.get("board", build_board().name);
-  const std::string path = std::string(kBoardSourceDir) + "/" + board + "/hal.toml";
+  std::string fault;  // empty: none
+  std::string board;
+  std::string path;  // the board's hal.toml
+};
+
+// A malformed command line: exit code 2, the usage follows the message.
+bool bad_usage(Failure& f, const std::string& why) {
+  f.usage = true;
+  return fail(f, why, 2);
+}
+
+bool parse_options(int argc, char** argv, AcquireOptions& o, Failure& f) {
+  std::string err;
+  if (!o.args.parse(argc, argv, {"board", "seconds", "replay", "fault", "fault-at"}, {}, err)) return bad_usage(f, err);
+  if (!o.args.positional().empty()) return bad_usage(f, "unexpected argument");
+  if (!o.args.get_int("seconds", 1, 86400, o.seconds, err) || !o.args.get_float("fault-at", 0, 86400, o.fault_at, err))
+    return bad_usage(f, err);
+  o.fault = o.args.get("fault");
+  if (!o.fault.empty() && o.fault != "stall" && o.fault != "drop" && o.fault != "garbage" && o.fault != "unplug")
+    return bad_usage(f, "--fault '" + o.fault + "' is not stall, drop, garbage or unplug");
+  o.board = o.args.get("board", build_board().name);
+  o.path = std::string(kBoardSourceDir) + "/" + o.board + "/hal.toml";
+  return true;
+}
+
+// The devices, the frame pools, the workers that fill them and what the loop took. Declared in
+// the order they are built: the workers stop (destructors) before the devices they read go.
+struct AcquireRun {
   io::BoardHal hal_data;
-  if (!io::read_board_hal(path, hal_data, err)) {
-    std::fprintf(stderr, "edgefuse acquire: %s\n", err.c_str());
-    return 1;
-  }
-  hal::MonotonicClock& clock = hal::monotonic_clock();
   hal::HalDevices devices;
-  // --fault: the cameras are wrapped in FaultCameras (only then).
-  if (!devices.build(hal_data, clock, err, args.get("replay"), true, 1.0, !fault.empty())) {
-    std::fprintf(stderr, "edgefuse acquire: %s: %s\n", path.c_str(), err.c_str());
-    return 1;
-  }
   CoreBuffers buffers;  // the static arena, carved once (only its frame pools are used here)
-  if (carve_memory(build_board(), static_arena(), static_arena_bytes(), buffers) != Status::kOk) {
-    std::fprintf(stderr, "edgefuse acquire: the static arena does not hold board %s's memory map\n",
-                 build_board().name);
-    return 1;
-  }
-  const int pools = buffers.frame_pools.pools < kMaxCameras ? buffers.frame_pools.pools : kMaxCameras;
+  int n = 0;            // cameras with a frame pool
+  std::unique_ptr<hal::CameraWorker> workers[kMaxCameras];
+  std::unique_ptr<hal::ScannerWorker> scanner_worker;
+  hal::LineScanner* scanner = nullptr;
+  long taken[kMaxCameras] = {};
+  long profiles = 0;
+};
+
+bool build_devices(const AcquireOptions& o, AcquireRun& run, Failure& f) {
+  std::string err;
+  if (!io::read_board_hal(o.path, run.hal_data, err)) return fail(f, err);
+  // --fault: the cameras are wrapped in FaultCameras (only then).
+  if (!run.devices.build(run.hal_data, hal::monotonic_clock(), err, o.args.get("replay"), true, 1.0, !o.fault.empty()))
+    return fail(f, o.path + ": " + err);
+  return true;
+}
+
+// One worker thread per camera that has a frame pool in the memory map.
+bool start_cameras(const AcquireOptions& o, AcquireRun& run, Failure& f) {
+  hal::HalDevices& devices = run.devices;
+  if (carve_memory(build_board(), static_arena(), static_arena_bytes(), run.buffers) != Status::kOk)
+    return fail(f, "the static arena does not hold board " + std::string(build_board().name) + "'s memory map");
+  const int pools = run.buffers.frame_pools.pools < kMaxCameras ? run.buffers.frame_pools.pools : kMaxCameras;
   const int n = devices.camera_count() < pools ? devices.camera_count() : pools;
-  if (n == 0) {
-    std::fprintf(stderr, "edgefuse acquire: %s lists no [[camera]]\n", path.c_str());
-    return 1;
-  }
+  run.n = n;
+  if (n == 0) return fail(f, o.path + " lists no [[camera]]");
   if (devices.camera_count() > n)
     std::fprintf(stderr, "edgefuse acquire: %s lists %d cameras; the first %d have frame pools (sensors_max)\n",
-                 path.c_str(), devices.camera_count(), n);
+                 o.path.c_str(), devices.camera_count(), n);
   std::printf("board %s: %d camera(s), backends built: %s, frame pools %d x %d px x %d slots (memory map)\n",
-              board.c_str(), n, hal::HalDevices::built_backends(), kBuildBoard.image_width_max,
+              o.board.c_str(), n, hal::HalDevices::built_backends(), kBuildBoard.image_width_max,
               kBuildBoard.image_height_max, kFramePoolSlots);
-  std::unique_ptr<hal::CameraWorker> workers[kMaxCameras];
   for (int i = 0; i < n; ++i) {
-    if (!hal::bind_frame_pool(buffers.frame_pools, i, g_pool_views[i], g_channels[i], g_counters[i])) {
-      std::fprintf(stderr, "edgefuse acquire: no frame pool %d in the memory map\n", i);
-      return 1;
-    }
-    workers[i].reset(new hal::CameraWorker(devices.camera(i), g_channels[i], g_counters[i], clock, &devices.monitor()));
+    if (!hal::bind_frame_pool(run.buffers.frame_pools, i, g_pool_views[i], g_channels[i], g_counters[i]))
+      return fail(f, "no frame pool " + std::to_string(i) + " in the memory map");
+    run.workers[i].reset(new hal::CameraWorker(devices.camera(i), g_channels[i], g_counters[i], hal::monotonic_clock(),
+                                               &devices.monitor()));
     hal::CameraWorkerConfig wc;
-    if (!workers[i]->start(wc)) {
-      std::fprintf(stderr, "edgefuse acquire: cannot start the thread of camera '%s'\n", devices.camera(i).name());
-      return 1;
-    }
+    if (!run.workers[i]->start(wc))
+      return fail(f, "cannot start the thread of camera '" + std::string(devices.camera(i).name()) + "'");
   }
-  std::unique_ptr<hal::ScannerWorker> scanner_worker;
-  long profiles = 0;
-  hal::LineScanner* scanner = devices.scanner();
-  if (scanner != nullptr) {
-    if (scanner->info().beams > 1024) {
-      std::fprintf(stderr, "edgefuse acquire: line scanner '%s' has %d beams, more than 1024\n", scanner->name(),
-                   scanner->info().beams);
-      return 1;
+  return true;
+}
+
+bool start_scanner(AcquireRun& run, Failure& f) {
+  run.scanner = run.devices.scanner();
+  if (run.scanner == nullptr) return true;
+  if (run.scanner->info().beams > 1024)
+    return fail(f, "line scanner '" + std::string(run.scanner->name()) + "' has " +
+                       std::to_string(run.scanner->info().beams) + " beams, more than 1024");
+  g_profile_pool.bind(g_profiles, g_profile_counters);
+  run.scanner_worker.reset(new hal::ScannerWorker(*run.scanner, g_profiles, g_profile_counters));
+  run.scanner_worker->start(hal::ScannerWorkerConfig{});
+  return true;
+}
+
+// Seconds since the loop started.
+struct Stopwatch {
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+  double seconds() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
+};
+
+// The newest frame of every camera (the first two as stamp pairs) and the scanner's profiles, counted.
+void take_frames(AcquireRun& run, hal::FramePairer& pairer) {
+  if (run.n > 1) {
+    hal::FramePair p;
+    if (pairer.poll(p)) {
+      ++run.taken[0];
+      ++run.taken[1];
+      pairer.release(p);
     }
-    g_profile_pool.bind(g_profiles, g_profile_counters);
-    scanner_worker.reset(new hal::ScannerWorker(*scanner, g_profiles, g_profile_counters));
-    scanner_worker->start(hal::ScannerWorkerConfig{});
-  }
-  hal::FramePairer pairer(g_channels[0], g_channels[n > 1 ? 1 : 0], 20000);
-  const auto t0 = std::chrono::steady_clock::now();
-  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-  long taken[kMaxCameras] = {};
-  bool fault_done = fault.empty(), replugged = fault != "unplug";
-  int next_report = 1;
-  while (elapsed() < seconds) {
-    if (n > 1) {
-      hal::FramePair p;
-      if (pairer.poll(p)) {
-        ++taken[0];
-        ++taken[1];
-        pairer.release(p);
+    for (int i = 2; i < run.n; ++i)
+      if (const hal::DepthFrame* f = g_channels[i].acquire_newest()) {
+        ++run.taken[i];
+        g_channels[i].release(f);
       }
-      for (int i = 2; i < n; ++i)
-        if (const hal::DepthFrame* f = g_channels[i].acquire_newest()) {
-          ++taken[i];
-          g_channels[i].release(f);
-        }
-    } else if (const hal::DepthFrame* f = g_channels[0].acquire_newest()) {
-      ++taken[0];
-      g_channels[0].release(f);
-    }
-    profiles += g_profiles.drain([](const hal::LineProfile&) {});
-    if (!fault_done && elapsed() >= fault_at) {
-      hal::FaultCamera& cam = *devices.faults(0);
-      if (fault == "stall") cam.inject_stall(1500);
-      if (fault == "drop") cam.inject_drop(5);
-      if (fault == "garbage") cam.inject_garbage(hal::GarbageKind::kAllInvalid);
-      if (fault == "unplug") cam.set_plugged(false);
-      std::printf("%.1f s: injected %s into '%s'\n", elapsed(), fault.c_str(), cam.name());
+  } else if (const hal::DepthFrame* f = g_channels[0].acquire_newest()) {
+    ++run.taken[0];
+    g_channels[0].release(f);
+  }
+  run.profiles += g_profiles.drain([](const hal::LineProfile&) {});
+}
+
+void inject_fault(const std::string& fault, AcquireRun& run, const Stopwatch& clock) {
+  hal::FaultCamera& cam = *run.devices.faults(0);
+  if (fault == "stall") cam.inject_stall(1500);
+  if (fault == "drop") cam.inject_drop(5);
+  if (fault == "garbage") cam.inject_garbage(hal::GarbageKind::kAllInvalid);
+  if (fault == "unplug") cam.set_plugged(false);
+  std::printf("%.1f s: injected %s into '%s'\n", clock.seconds(), fault.c_str(), cam.name());
+}
+
+// Every camera's and the scanner's status counters and what was taken, each line led by `when`.
+void print_counters(AcquireRun& run, const char* when) {
+  for (int i = 0; i < run.n; ++i) {
+    char line[512];
+    hal::format_counters(g_counters[i], line, sizeof(line));
+    std::printf("%s %-6s %s taken=%ld\n", when, run.devices.camera(i).name(), line, run.taken[i]);
+  }
+  if (run.scanner != nullptr) {
+    char line[512];
+    hal::format_counters(g_profile_counters, line, sizeof(line));
+    std::printf("%s %-6s %s taken=%ld\n", when, run.scanner->name(), line, run.profiles);
+  }
+}
+
+// The loop for --seconds: takes frames, injects the fault when due, reports each second.
+void take_for(const AcquireOptions& o, AcquireRun& run, hal::FramePairer& pairer) {
+  const Stopwatch clock;
+  bool fault_done = o.fault.empty(), replugged = o.fault != "unplug";
+  int next_report = 1;
+  while (clock.seconds() < o.seconds) {
+    take_frames(run, pairer);
+    if (!fault_done && clock.seconds() >= o.fault_at) {
+      inject_fault(o.fault, run, clock);
       fault_done = true;
     }
-    if (!replugged && elapsed() >= fault_at + 1.0) {
-      devices.faults(0)->set_plugged(true);
-      std::printf("%.1f s: replugged '%s'\n", elapsed(), devices.camera(0).name());
+    if (!replugged && clock.seconds() >= o.fault_at + 1.0) {
+      run.devices.faults(0)->set_plugged(true);
+      std::printf("%.1f s: replugged '%s'\n", clock.seconds(), run.devices.camera(0).name());
       replugged = true;
     }
-    if (elapsed() >= next_report) {
-      for (int i = 0; i < n; ++i) {
-        char line[512];
-        hal::format_counters(g_counters[i], line, sizeof(line));
-        std::printf("%d s %-6s %s taken=%ld\n", next_report, devices.camera(i).name(), line, taken[i]);
-      }
-      if (scanner != nullptr) {
-        char line[512];
-        hal::format_counters(g_profile_counters, line, sizeof(line));
-        std::printf("%d s %-6s %s taken=%ld\n", next_report, scanner->name(), line, profiles);
-      }
+    if (clock.seconds() >= next_report) {
+      char when[16];
+      std::snprintf(when, sizeof(when), "%d s", next_report);
+      print_counters(run, when);
       ++next_report;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
-  for (int i = 0; i < n; ++i) workers[i]->stop();
-  if (scanner_worker) scanner_worker->stop();
-  profiles += g_profiles.drain([](const hal::LineProfile&) {});
+}
+
+// Runs the loop, stops the workers and prints the summary; 0 when frames came.
+int acquire(const AcquireOptions& o, AcquireRun& run) {
+  hal::FramePairer pairer(g_channels[0], g_channels[run.n > 1 ? 1 : 0], 20000);
+  take_for(o, run, pairer);
+  for (int i = 0; i < run.n; ++i) run.workers[i]->stop();
+  if (run.scanner_worker) run.scanner_worker->stop();
+  run.profiles += g_profiles.drain([](const hal::LineProfile&) {});
   pairer.reset();
-  for (int i = 0; i < n; ++i) {
-    char line[512];
-    hal::format_counters(g_counters[i], line, sizeof(line));
-    std::printf("end %-6s %s taken=%ld\n", devices.camera(i).name(), line, taken[i]);
-  }
-  if (scanner != nullptr) {
-    char line[512];
-    hal::format_counters(g_profile_counters, line, sizeof(line));
-    std::printf("end %-6s %s taken=%ld\n", scanner->name(), line, profiles);
-  }
+  print_counters(run, "end");
   long total = 0;
-  for (int i = 0; i < n; ++i) total += taken[i];
+  for (int i = 0; i < run.n; ++i) total += run.taken[i];
+  const int n = run.n;
   std::printf("cameras=%d frames_taken=%ld pairs=%u unpaired=%u profiles=%ld\n", n, total,
-              n > 1 ? pairer.pairs() : 0u, n > 1 ? pairer.unpaired_a() + pairer.unpaired_b() : 0u, profiles);
+              n > 1 ? pairer.pairs() : 0u, n > 1 ? pairer.unpaired_a() + pairer.unpaired_b() : 0u, run.profiles);
   return total > 0 ? 0 : 1;
+}
+
+}  // namespace
+
+int cmd_acquire(int argc, char** argv) {
+  AcquireOptions o;
+  Failure f;
+  AcquireRun run;
+  if (!parse_options(argc, argv, o, f) || !build_devices(o, run, f) || !start_cameras(o, run, f) ||
+      !start_scanner(run, f))
+    return report("edgefuse acquire", f, kUsage);
+  return acquire(o, run);
 }
 
 }  // namespace edgefuse::cli

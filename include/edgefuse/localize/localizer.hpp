@@ -247,6 +247,19 @@ class Localizer {
   void sort_by_label(std::size_t labels_n);
   //! segment(): small pieces join a touching large segment (after sort_by_label); true if any did.
   bool merge_small_segments(const LocalizeParams& params, std::size_t labels_n);
+  //! segment(): labels every scene point (creases, region growing); returns the last label.
+  int32_t label_segments(const LocalizeParams& params);
+  //! segment(): caps `label` to the arrays, sorts by label, merges small pieces; returns the label count.
+  std::size_t group_by_label(const LocalizeParams& params, int32_t& label);
+  //! segment(): centre and box axes (columns of B) of the segment queue[start, tail).
+  void segment_box_frame(std::size_t start, std::size_t tail, Vec3f& centre, Mat3f& B) const;
+  //! segment(): the segment queue[start, tail) as a result: box, top, grasp point and approach.
+  LocalizedObject describe_segment(std::size_t start, std::size_t tail, int32_t seg_label) const;
+  //! segment(): keeps o among the first max_results results in picking order (appended while there
+  //! is room, else in place of the last one if o comes before it).
+  void keep_in_picking_order(const LocalizedObject& o, int max_results, std::size_t& count) const;
+  //! segment(): labels[] and the results' segment become picking ranks (1 = first; 0: not reported).
+  void label_by_picking_rank(int32_t label, std::size_t count);
   std::size_t vote_model(int m, const LocalizeParams& params, std::size_t first_candidate);
   //! Votes of reference sample r of model m into accumulator `votes`; false when no peak.
   bool vote_reference(int m, std::size_t r, std::size_t ns, uint16_t* votes, PoseCandidate& out) const;
@@ -289,6 +302,7 @@ class Localizer {
   //! Votes x, y, yaw of model m on each resting face; queues the best peaks into verified[first..).
   std::size_t queue_rest_hypotheses(int m, const LocalizeParams& params, std::size_t first);
   static void rest_vote_job(void* self, std::size_t chunk);
+  struct RestVoter;  //!< rest_vote_job's chunk (rest_pose.cpp)
   //! Visible samples of model m at T with an unclaimed scene point near them: count x share (0 when
   //! the share is too small for ICP + verification to accept the pose).
   float rest_coverage(int m, const Pose& T, const LocalizeParams& params) const;

@@ -68,6 +68,25 @@ class HalDevices {
 
  private:
   struct Owned;
+  // build()'s steps: each returns false with err naming the camera or scanner it cannot build.
+  //! Camera c on its backend (every camera replays from replay_override when that is set).
+  bool add_camera(const io::BoardCamera& c, Clock& clock, const std::string& replay_override, bool replay_loop,
+                  double replay_speed, uint64_t& rig_epoch_us, bool& any_usb, std::string& err);
+  bool make_sim_camera(const io::BoardCamera& c, Clock& clock, uint64_t& rig_epoch_us,
+                       std::unique_ptr<DepthCamera>& cam, const TruthSource*& truth, std::string& err);
+  bool make_replay_camera(const io::BoardCamera& c, const std::string& folder, Clock& clock, bool loop, double speed,
+                          std::unique_ptr<DepthCamera>& cam, const TruthSource*& truth, std::string& err);
+  bool make_openni2_camera(const io::BoardCamera& c, Clock& clock, bool loop, std::unique_ptr<DepthCamera>& cam,
+                           std::string& err);
+  bool make_v4l2_camera(const io::BoardCamera& c, std::unique_ptr<DepthCamera>& cam, std::string& err);
+  //! The libusb monitor replaces the simulated one when a camera lists USB ids (and libusb is built).
+  void watch_usb(bool any_usb, Clock& clock);
+  bool add_replay_scanner(const io::BoardScanner& sc, const std::string& replay_override, Clock& clock,
+                          double replay_speed, std::string& err);
+  bool add_sim_scanner(const io::BoardHal& board, const io::BoardScanner& sc, Clock& clock, std::string& err);
+  //! The scanner's trigger on the gpiod line of its trigger_pin.
+  bool make_gpiod_trigger(const io::BoardPin& pin, const io::BoardScanner& sc, Clock& clock, std::string& err);
+
   std::unique_ptr<Owned> owned_;
   SimScene scene_;
   std::vector<io::BoardCamera> configs_;

@@ -81,6 +81,15 @@ class Openni2DepthCamera final : public DepthCamera {
  private:
   struct Impl;
   HalStatus fail(HalStatus s, const char* what);
+  // start()'s steps on the opened device and depth stream.
+  //! An .oni recording: manual speed, repeat as configured, its depth frames counted.
+  HalStatus prepare_playback();
+  //! Sets the configured depth mode when the device's current one differs; refuses a mode it lacks.
+  HalStatus select_depth_mode();
+  //! Starts colour registered to depth when asked for and possible; colour_state_ says why not.
+  void set_up_colour();
+  //! intr_: the board's, else from the reported field of view.
+  void set_intrinsics();
 
   Openni2CameraConfig config_;
   Clock& clock_;

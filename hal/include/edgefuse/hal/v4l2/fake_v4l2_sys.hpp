@@ -54,6 +54,13 @@ class FakeV4l2Sys final : public V4l2Sys {
     uint64_t stamp_us = 0;
   };
   static constexpr int kFd = 42;
+  // ioctl's requests; arg is the request's struct.
+  int enum_format(void* arg) const;
+  int set_format(void* arg);
+  int request_buffers(void* arg);
+  int query_buffer(void* arg) const;
+  int queue_buffer(void* arg);
+  int dequeue_buffer(void* arg);
   bool open_ = false, gone_ = false, streaming_ = false;
   std::vector<Buffer> buffers_;
   std::deque<uint32_t> queued_, done_;
