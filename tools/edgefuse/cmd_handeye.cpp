@@ -207,12 +207,12 @@ bool solve(const HandEyeRun& run, HandEyeResult& r, std::vector<int>& used, Fail
 void print_station(const HandEyeRun& run, std::size_t i, const HandEyeResult& r, int k) {
   const Station& s = run.stations[i];
   const TrackResult& t = s.step.track;
-  std::printf("station %zu stamp %.6f: %-8s", i, run.cam.seq.frames[s.frame].stamp_s,
+  std::printf("station %2zu stamp %.6f: %-8s", i, run.cam.seq.frames[s.frame].stamp_s,
               t.first ? "first" : to_string(t.state));
   if (t.first)
-    std::printf(" placed the space at its prior      ");
+    std::printf(" %-31s", "placed the space at its prior");
   else
-    std::printf(" correction %5.2f mm %5.3f deg", 1e3f * t.jump_m, t.jump_deg);
+    std::printf(" correction %6.2f mm %6.3f deg", 1e3f * t.jump_m, t.jump_deg);
   if (s.step.integrated)
     std::printf(" | final %-8s %5.2f mm %5.3f deg, rms %.2f mm, inliers %.2f", to_string(s.final.state),
                 1e3f * s.final.jump_m, s.final.jump_deg, 1e3f * s.final.icp.rms_m, s.final.icp.inlier_ratio());
