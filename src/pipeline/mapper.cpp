@@ -110,19 +110,21 @@ Status Mapper::map_reference(CameraSlot& cam, const SensorFrame& in, const Pose*
   Status s = prepare_frame(cam, in, f, &out.filtered);
   if (observer != nullptr) observer->phase_done(MapPhase::kFilter);
   if (s != Status::kOk) return s;
-  if (params_.poses == PoseMode::kTracked) {
-    s = track(cam, f, start, out, observer);
-    if (s != Status::kOk) return s;
-  } else {
-    if (known == nullptr) {
-      history_.clear();  // no pose: nothing can be paired with this frame
-      return Status::kOk;
-    }
+  if (params_.poses != PoseMode::kTracked && known == nullptr) {
+    history_.clear();  // no pose: nothing can be paired with this frame
+    return Status::kOk;
+  }
+  if (params_.poses == PoseMode::kKnown) {
     out.T_world_cam = *known;
     out.has_pose = true;
     out.track.T_world_cam = *known;
     out.track.push = true;
     out.track.first = map_frames_ == 0;
+  } else {
+    // kPrior: a new map starts at the first frame's prior, every frame is aligned from its own prior.
+    const Pose* prior = params_.poses == PoseMode::kPrior ? known : nullptr;
+    s = track(cam, f, prior != nullptr ? *prior : start, prior, out, observer);
+    if (s != Status::kOk) return s;
   }
   history_.record(in.stamp_us, out.T_world_cam, out.has_pose);
   if (!out.track.push) return Status::kOk;
@@ -136,9 +138,10 @@ Status Mapper::map_reference(CameraSlot& cam, const SensorFrame& in, const Pose*
   return Status::kOk;
 }
 
-// The paper's loop (Fig. 3): ICP of the frame against the model raycast at the last good pose. A
-// new map starts at `start`; its first frame is pushed there without alignment.
-Status Mapper::track(CameraSlot& cam, const DepthFrame& f, const Pose& start, ReferenceStep& out,
+// The paper's loop (Fig. 3): ICP of the frame against the model raycast at the last good pose, or
+// with a prior (robot+icp) at the prior. A new map starts at `start`; its first frame is pushed
+// there without alignment.
+Status Mapper::track(CameraSlot& cam, const DepthFrame& f, const Pose& start, const Pose* prior, ReferenceStep& out,
                      StepObserver* observer) {
   const bool first = starts_new_map();
   if (first) {
@@ -147,15 +150,33 @@ Status Mapper::track(CameraSlot& cam, const DepthFrame& f, const Pose& start, Re
     if (centre_pending_) out.centred = centre_on(cam, f, start);
   }
   Status s = Status::kOk;
-  if (!first) s = raycast_frame<real_t>(runners_.tsdf, *volume_, cam.intr, tracker_.raycast_pose(), cam.maps);
+  const Pose& model_pose = prior != nullptr ? *prior : tracker_.raycast_pose();
+  if (!first) s = raycast_frame<real_t>(runners_.tsdf, *volume_, cam.intr, model_pose, cam.maps);
   if (observer != nullptr) observer->phase_done(MapPhase::kRaycast);
   if (s == Status::kOk) s = build_pyramid<real_t>(f.depth, PyramidParams(), cam.pyramid);
-  if (s == Status::kOk) s = tracker_.track<real_t>(cam.pyramid, cam.maps, cam.intr, cam.icp_ws, out.track, runners_.icp);
+  if (s == Status::kOk && prior != nullptr)
+    s = tracker_.track_prior<real_t>(*prior, cam.pyramid, cam.maps, cam.intr, cam.icp_ws, out.track, runners_.icp);
+  else if (s == Status::kOk)
+    s = tracker_.track<real_t>(cam.pyramid, cam.maps, cam.intr, cam.icp_ws, out.track, runners_.icp);
   if (observer != nullptr) observer->phase_done(MapPhase::kTrack);
   if (s != Status::kOk) return s;
   out.T_world_cam = out.track.T_world_cam;
   out.has_pose = out.track.state != TrackState::kLost;
   return Status::kOk;
+}
+
+Status Mapper::align_reference(CameraSlot& cam, const SensorFrame& in, const Pose& prior, TrackResult& out) {
+  out = TrackResult{};
+  if (centre_pending_ || map_frames_ == 0) return Status::kNotInitialised;
+  DepthFrame f;
+  float sigma_m = 0.0f;
+  const CameraSlot::MapCounts before = cam.counts;  // aligning is not mapping: nothing counted
+  Status s = weigh_frame(cam, in, f, sigma_m, nullptr);
+  cam.counts = before;
+  if (s == Status::kOk) s = raycast_frame<real_t>(runners_.tsdf, *volume_, cam.intr, prior, cam.maps);
+  if (s == Status::kOk) s = build_pyramid<real_t>(f.depth, PyramidParams(), cam.pyramid);
+  if (s == Status::kOk) s = tracker_.align_prior<real_t>(prior, cam.pyramid, cam.maps, cam.intr, cam.icp_ws, out, runners_.icp);
+  return s;
 }
 
 // Centres the volume on the frame's view and clears it; stays pending when the frame sees nothing.

@@ -36,22 +36,26 @@ Status Tracker::start(const Pose& initial, const TrackerParams& params, bool spa
   return Status::kOk;
 }
 
+// Nothing to align to: the first frame defines the space at the initial pose.
+void Tracker::push_first(TrackResult& result) {
+  space_empty_ = false;
+  result.T_world_cam = pose_;
+  result.first = true;
+  result.push = true;
+  last_push_ = pose_;
+  pushed_any_ = true;
+  last_was_ok_ = true;
+  frames_since_ok_ = 0;
+  state_ = TrackState::kOk;
+}
+
 template <class Real>
 Status Tracker::track(const FramePyramid<Real>& frame, const RaycastMaps& model, const PinholeIntrinsics& intr,
                       const IcpWorkspace<Real>& ws, TrackResult& result, const RowRunner* runner) {
   result = TrackResult{};
   ++frames_;
   if (space_empty_) {
-    // Nothing to align to: the first frame defines the space at the initial pose.
-    space_empty_ = false;
-    result.T_world_cam = pose_;
-    result.first = true;
-    result.push = true;
-    last_push_ = pose_;
-    pushed_any_ = true;
-    last_was_ok_ = true;
-    frames_since_ok_ = 0;
-    state_ = TrackState::kOk;
+    push_first(result);
     return Status::kOk;
   }
   // The jump test allows max_jump per frame since the last ok frame (the sensor kept moving while
@@ -118,6 +122,70 @@ Status Tracker::track(const FramePyramid<Real>& frame, const RaycastMaps& model,
   return Status::kOk;
 }
 
+template <class Real>
+Status Tracker::align_prior(const Pose& prior, const FramePyramid<Real>& frame, const RaycastMaps& model,
+                            const PinholeIntrinsics& intr, const IcpWorkspace<Real>& ws, TrackResult& result,
+                            const RowRunner* runner) const {
+  result = TrackResult{};
+  // The model was raycast at the prior: the ICP starts there (identity in the model frame).
+  Pose T_model_frame;
+  const Status s = icp_align(frame, model, intr, Pose::identity(), params_.icp, ws, T_model_frame, result.icp, runner);
+  if (s != Status::kOk) return s;
+  result.start = 2;
+  result.attempts = 1;
+  result.T_world_cam = prior * T_model_frame;
+  result.T_world_cam.R = orthonormalise(result.T_world_cam.R);
+  float angle;
+  pose_distance(prior, result.T_world_cam, result.jump_m, angle);
+  result.jump_deg = angle * 180.0f / 3.14159265f;
+  // Each frame has its own prior: the correction is not accumulated over frames (no elapsed scaling).
+  result.state = classify_frame(result.icp, result.jump_m, angle, params_.state);
+  if (result.state == TrackState::kLost) result.T_world_cam = prior;  // robot and data disagree
+  return Status::kOk;
+}
+
+template <class Real>
+Status Tracker::track_prior(const Pose& prior, const FramePyramid<Real>& frame, const RaycastMaps& model,
+                            const PinholeIntrinsics& intr, const IcpWorkspace<Real>& ws, TrackResult& result,
+                            const RowRunner* runner) {
+  ++frames_;
+  pose_ = prior;
+  if (space_empty_) {
+    result = TrackResult{};
+    push_first(result);
+    return Status::kOk;
+  }
+  const Status s = align_prior(prior, frame, model, intr, ws, result, runner);
+  if (s != Status::kOk) return s;
+  const bool ok = result.state == TrackState::kOk;
+  has_velocity_ = false;  // the prior replaces the constant-velocity prediction
+  if (result.state != TrackState::kLost) {  // a lost frame is not pushed
+    pose_ = result.T_world_cam;
+    last_good_degraded_ = !ok;
+    result.push = !pushed_any_ || moved_enough_to_push(params_.push, last_push_, pose_);
+    if (result.push) {
+      last_push_ = pose_;
+      pushed_any_ = true;
+    }
+  }
+  last_was_ok_ = ok;
+  frames_since_ok_ = ok ? 0 : frames_since_ok_ + 1;
+  state_ = result.state;
+  return Status::kOk;
+}
+
+template Status Tracker::align_prior<float>(const Pose&, const FramePyramid<float>&, const RaycastMaps&,
+                                            const PinholeIntrinsics&, const IcpWorkspace<float>&, TrackResult&,
+                                            const RowRunner*) const;
+template Status Tracker::align_prior<Fixed>(const Pose&, const FramePyramid<Fixed>&, const RaycastMaps&,
+                                            const PinholeIntrinsics&, const IcpWorkspace<Fixed>&, TrackResult&,
+                                            const RowRunner*) const;
+template Status Tracker::track_prior<float>(const Pose&, const FramePyramid<float>&, const RaycastMaps&,
+                                            const PinholeIntrinsics&, const IcpWorkspace<float>&, TrackResult&,
+                                            const RowRunner*);
+template Status Tracker::track_prior<Fixed>(const Pose&, const FramePyramid<Fixed>&, const RaycastMaps&,
+                                            const PinholeIntrinsics&, const IcpWorkspace<Fixed>&, TrackResult&,
+                                            const RowRunner*);
 template Status Tracker::track<float>(const FramePyramid<float>&, const RaycastMaps&, const PinholeIntrinsics&,
                                       const IcpWorkspace<float>&, TrackResult&, const RowRunner*);
 template Status Tracker::track<Fixed>(const FramePyramid<Fixed>&, const RaycastMaps&, const PinholeIntrinsics&,

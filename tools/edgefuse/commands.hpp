@@ -11,6 +11,7 @@ int cmd_eval(int argc, char** argv);
 // multi-sensor fusion
 int cmd_calibrate(int argc, char** argv);
 int cmd_fuse_rig(int argc, char** argv);  //!< `fuse RIGSET --sensors ...` (called by cmd_fuse)
+int cmd_handeye(int argc, char** argv);   //!< the camera's mounting on a robot flange (AX = XB)
 // pose link
 int cmd_listen(int argc, char** argv);
 // localisation

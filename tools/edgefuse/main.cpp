@@ -21,6 +21,7 @@ const Command kCommands[] = {
     {"eval", edgefuse::cli::cmd_eval, "trajectory accuracy: ATE (aligned) / RPE against ground truth, as TUM's tools"},
     // multi-sensor fusion
     {"calibrate", edgefuse::cli::cmd_calibrate, "find the mounting T_A_B of two rigidly mounted sensors from the data"},
+    {"handeye", edgefuse::cli::cmd_handeye, "find the camera's mounting on a robot flange from robot poses and the data"},
     // pose link
     {"listen", edgefuse::cli::cmd_listen, "decode and print the pose link (serial, TCP, UDP or a captured file)"},
     // localisation

@@ -1,7 +1,8 @@
 // The mapping step, one call per frame (the paper's Fig. 3 with several sensors):
 //   reference camera: pre-filters -> trust map (several sensors) -> pose (tracked by ICP against
 //     the model raycast at the last good pose, pushed after 1 cm / 1 degree; or the frame's known
-//     pose, every frame pushed) -> a new map is centred on its first view -> integration;
+//     pose, every frame pushed; or the known pose as the prior that ICP against the model raycast
+//     there corrects, "robot+icp") -> a new map is centred on its first view -> integration;
 //   another camera of the rig, paired with a reference frame: pre-filters -> trust map -> the
 //     reference's pose at the frame's own stamp (PoseHistory) times its extrinsics -> integration;
 //   a line scanner's profile: integrated at the pose its axis gives, with the scanner's trust.
@@ -27,6 +28,11 @@ namespace edgefuse {
 enum class PoseMode : uint8_t {
   kKnown,    //!< given with each frame (a robot, a recording's ground truth, the simulator)
   kTracked,  //!< ICP against the map (the paper's Fig. 3)
+  //! "robot+icp": the pose given with each frame (a robot's flange pose times the camera's mounting)
+  //! is the prior, ICP against the map raycast at the prior corrects it (the paper: the robot's pose
+  //! is not trusted as it is, the data is). Replaces the tracker's constant-velocity prediction, so
+  //! frames may be far apart (robot stations); a new map's first frame is pushed at its prior.
+  kPrior,
 };
 
 //! The fusion rules that follow the sensors' modelled noise (fusion_rules.hpp; with noise weights only).
@@ -38,7 +44,7 @@ struct FusionRuleParams {
 
 struct MapperParams {
   PoseMode poses = PoseMode::kKnown;
-  TrackerParams tracker;       //!< kTracked: alignment, states, push policy
+  TrackerParams tracker;       //!< kTracked, kPrior: alignment, states, push policy
   bool prefilter = true;       //!< run each camera's pre-filters (off: frames are integrated as given)
   bool noise_weights = false;  //!< weight each pixel by its sensor's noise model (several sensors)
   FusionRuleParams rules;      //!< noise_weights: the depth-jump limit, sub-unit fill and noise gate
@@ -57,10 +63,10 @@ class StepObserver {
 
 //! What map_reference() did with a frame.
 struct ReferenceStep {
-  TrackResult track;       //!< kTracked: the tracker's result; kKnown: state ok, pushed
-  Pose T_world_cam;        //!< the frame's pose (tracked and lost: the last good pose)
+  TrackResult track;       //!< kTracked, kPrior: the tracker's result; kKnown: state ok, pushed
+  Pose T_world_cam;        //!< the frame's pose (tracked and lost: the last good pose; kPrior and lost: the prior)
   bool filtered = false;   //!< the pre-filters ran (the frame counts as processed)
-  bool has_pose = false;   //!< known, or tracked and not lost
+  bool has_pose = false;   //!< known, or tracked / corrected and not lost
   bool integrated = false; //!< pushed into the map
   bool centred = false;    //!< this frame placed a new map (volume cleared, origin on its view)
 };
@@ -89,12 +95,19 @@ class Mapper {
   bool starts_new_map() const { return centre_pending_ || map_frames_ == 0; }
 
   //! One frame of the reference camera.
-  //! \param cam its slot  \param frame the raw frame  \param known its pose when known (null: none)
-  //! \param start kTracked: the pose a new map starts at  \param out what happened
+  //! \param cam its slot  \param frame the raw frame  \param known its pose when known (null: none;
+  //! kPrior: the prior)  \param start kTracked: the pose a new map starts at  \param out what happened
   //! \param observer optional phase clock
   //! \return kOk also when the frame was not integrated (see out); an error when a kernel refused
   Status map_reference(CameraSlot& cam, const SensorFrame& frame, const Pose* known, const Pose& start,
                        ReferenceStep& out, StepObserver* observer = nullptr);
+  //! kPrior's correction alone: a frame of the reference camera aligned by ICP against the map
+  //! raycast at `prior`, not integrated, counting nothing and leaving the tracking state as it is
+  //! (e.g. every robot station aligned again once the map holds them all).
+  //! \param cam its slot  \param frame the raw frame  \param prior its approximate pose
+  //! \param out the aligned pose (the prior when lost), state, correction and ICP statistics; never pushed
+  //! \return kNotInitialised while nothing is mapped; else kOk or a kernel's error
+  Status align_reference(CameraSlot& cam, const SensorFrame& frame, const Pose& prior, TrackResult& out);
   //! One frame of any camera at a pose the caller knows (a recording's poses, a calibrated mounting).
   //! \param cam its slot  \param frame the raw frame  \param T_world_cam its pose
   //! \return kNotInitialised while no map is placed; kOk when integrated
@@ -139,7 +152,8 @@ class Mapper {
   Status weigh_frame(CameraSlot& cam, const SensorFrame& in, DepthFrame& out, float& sigma_m, bool* filtered);
   void apply_noise_gate(CameraSlot& cam, const DepthFrame& f);
   Status integrate_at(CameraSlot& cam, const DepthFrame& f, const Pose& T_world_cam);
-  Status track(CameraSlot& cam, const DepthFrame& f, const Pose& start, ReferenceStep& out, StepObserver* observer);
+  Status track(CameraSlot& cam, const DepthFrame& f, const Pose& start, const Pose* prior, ReferenceStep& out,
+               StepObserver* observer);
   bool centre_on(const CameraSlot& cam, const DepthFrame& f, const Pose& T_world_cam);
   void fused_sigmas(float (&sigma)[kFusedMax]) const;
 

@@ -14,6 +14,10 @@
 // as the sensor sees what it saw before.
 // The first frame of an empty space is not aligned (there is nothing to align to): it is pushed at
 // the initial pose.
+// track_prior() is the "robot+icp" variant: the frame's pose is known roughly (a robot's flange
+// pose times the camera's mounting), the model is raycast at that prior and the ICP starts there,
+// so the motion between frames may be as large as the robot likes; the jump test then measures the
+// correction from the prior (a large one means robot and data disagree: lost).
 #pragma once
 
 #include "edgefuse/core/status.hpp"
@@ -37,7 +41,7 @@ struct TrackResult {
   TrackState state = TrackState::kOk;
   bool push = false;         //!< integrate this frame at T_world_cam
   bool first = false;        //!< first frame of an empty space (pushed at the initial pose, not aligned)
-  int start = -1;            //!< ICP start kept: 0 constant velocity, 1 last good pose, -1 none
+  int start = -1;            //!< ICP start kept: 0 constant velocity, 1 last good pose, 2 the prior, -1 none
   int attempts = 0;          //!< ICP runs this frame (0..2)
   float jump_m = 0;          //!< translation from the last good pose
   float jump_deg = 0;        //!< rotation from the last good pose
@@ -66,12 +70,42 @@ class Tracker {
   Status track(const FramePyramid<Real>& frame, const RaycastMaps& model, const PinholeIntrinsics& intr,
                const IcpWorkspace<Real>& ws, TrackResult& result, const RowRunner* runner = nullptr);
 
+  //! Aligns one frame starting at its prior (robot+icp); see the file comment. A lost frame keeps
+  //! the prior as its pose and is not pushed; the push policy is track()'s.
+  //! \param prior the frame's approximate sensor-to-world pose
+  //! \param frame the frame's pyramid
+  //! \param model raycast maps at `prior` (vertex and normal)
+  //! \param intr the sensor's intrinsics
+  //! \param ws ICP row sums
+  //! \param result pose, state (jump = the correction from the prior), push decision
+  //! \param runner optional row runner for the ICP (threads do not change the result)
+  template <class Real>
+  Status track_prior(const Pose& prior, const FramePyramid<Real>& frame, const RaycastMaps& model,
+                     const PinholeIntrinsics& intr, const IcpWorkspace<Real>& ws, TrackResult& result,
+                     const RowRunner* runner = nullptr);
+
+  //! track_prior()'s alignment and state without changing the tracker (never pushed): e.g. a frame
+  //! aligned again against a map that has grown since.
+  //! \param prior the frame's approximate sensor-to-world pose
+  //! \param frame the frame's pyramid
+  //! \param model raycast maps at `prior` (vertex and normal)
+  //! \param intr the sensor's intrinsics
+  //! \param ws ICP row sums
+  //! \param result pose (the prior when lost), state, correction from the prior, ICP statistics
+  //! \param runner optional row runner for the ICP (threads do not change the result)
+  template <class Real>
+  Status align_prior(const Pose& prior, const FramePyramid<Real>& frame, const RaycastMaps& model,
+                     const PinholeIntrinsics& intr, const IcpWorkspace<Real>& ws, TrackResult& result,
+                     const RowRunner* runner = nullptr) const;
+
   TrackState state() const { return state_; }      //!< of the last frame
   const Pose& last_push() const { return last_push_; }
   long frames() const { return frames_; }          //!< frames seen since start()
   const TrackerParams& params() const { return params_; }
 
  private:
+  void push_first(TrackResult& result);
+
   TrackerParams params_;
   Pose pose_;              // last good pose
   Pose velocity_;          // T_prev^-1 T_last of the last two consecutive ok frames
