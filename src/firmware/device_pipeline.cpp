@@ -67,8 +67,10 @@ bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) 
           " (build that board's preset)";
     return false;
   }
-  // Devices from the board's hal.toml (sensors.replay: every camera replays the rig set instead).
-  const std::string hal_path = std::string(kBoardSourceDir) + "/" + config.board + "/hal.toml";
+  // Devices from the board's hal.toml or config.hal_file (sensors.replay: every camera replays the
+  // rig set instead).
+  const std::string hal_path =
+      config.hal_file.empty() ? std::string(kBoardSourceDir) + "/" + config.board + "/hal.toml" : config.hal_file;
   hal::BoardDefaults defaults;
   if (!init_cameras(hal_path, err) || !init_fused(hal_path, err) || !hal::read_board_defaults(config.board, defaults, err))
     return false;
