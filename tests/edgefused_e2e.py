@@ -5,7 +5,9 @@ heartbeats over the link pseudo-terminal; the poses must equal the simulated bin
 stays flat over many localisation cycles; SIGTERM stops it cleanly; bad configuration values stop
 start-up with a message naming key, value and range.
 
-usage: edgefused_e2e.py EDGEFUSED EDGEFUSE LISTEN_PY WORKDIR [sanitized]
+usage: edgefused_e2e.py [--emulator CMD] [--time-factor F] EDGEFUSED EDGEFUSE LISTEN_PY WORKDIR [sanitized]
+  --emulator, --time-factor: the ARM builds run the programs under qemu-user, slower
+  (edgefused_helpers.emulation); the checks stay the same.
 """
 import importlib.util
 import os
@@ -19,8 +21,9 @@ import termios
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import command, open_raw, vm_data_kib  # noqa: E402
+from edgefused_helpers import command, emulation, open_raw, popen, vm_data_kib  # noqa: E402
 
+EMU, SLOW = emulation(sys.argv)
 EDGEFUSED, EDGEFUSE, LISTEN_PY, WORK = sys.argv[1:5]
 # This test checks the runtime, console and link with exact poses (tests/firmware/
 # exact_pose_pipeline.cpp). The device pipeline is tested by edgefused_fusion_e2e.py.
@@ -56,27 +59,27 @@ def check_csv(text, who):
 shutil.rmtree(WORK, ignore_errors=True)  # a previous run's calibration slots
 os.makedirs(WORK, exist_ok=True)
 # --- bad configuration stops start-up with key, value and range ------------------------------
-bad = subprocess.run([EDGEFUSED, *SIM, "--set", "link.tcp_port=70000"], capture_output=True, text=True, cwd=WORK)
+bad = subprocess.run([*EMU, EDGEFUSED, *SIM, "--set", "link.tcp_port=70000"], capture_output=True, text=True, cwd=WORK)
 check(bad.returncode == 1 and "link.tcp_port = 70000 is out of range [0, 65535]" in bad.stderr,
       "bad --set value refused: " + bad.stderr.strip())
 cfg = os.path.join(WORK, "bad.toml")
 with open(cfg, "w") as f:
     f.write("[localize]\nmin_score = 3\n")
-bad = subprocess.run([EDGEFUSED, *SIM, "--config", cfg], capture_output=True, text=True, cwd=WORK)
+bad = subprocess.run([*EMU, EDGEFUSED, *SIM, "--config", cfg], capture_output=True, text=True, cwd=WORK)
 check(bad.returncode == 1 and "localize.min_score = 3 is out of range [0, 1]" in bad.stderr and cfg in bad.stderr,
       "bad config value refused: " + bad.stderr.strip())
 
-ok = subprocess.run([EDGEFUSED, *SIM, "--board", "am335x", "--help"], capture_output=True, text=True)
+ok = subprocess.run([*EMU, EDGEFUSED, *SIM, "--board", "am335x", "--help"], capture_output=True, text=True)
 check(ok.returncode == 0 and "--set KEY=VALUE" in ok.stdout, "edgefused --help")
-bad = subprocess.run([EDGEFUSED, *SIM, "--board", "nosuch"], capture_output=True, text=True, cwd=WORK)
+bad = subprocess.run([*EMU, EDGEFUSED, *SIM, "--board", "nosuch"], capture_output=True, text=True, cwd=WORK)
 check(bad.returncode == 1 and "unknown board 'nosuch'" in bad.stderr, "unknown board refused: " + bad.stderr.strip())
 # Board data: am335x's [tsdf] defaults (4 mm voxels) reach the parameters; --set still wins.
-p = subprocess.Popen([EDGEFUSED, *SIM, "--board", "am335x", "--set", "link.tcp=false", "--set", "link.serial=",
-                      "--set", "console.serial=", "--set", "tsdf.trunc_m=0.02"],
-                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK)
+p = popen([*EMU, EDGEFUSED, *SIM, "--board", "am335x", "--set", "link.tcp=false", "--set", "link.serial=",
+           "--set", "console.serial=", "--set", "tsdf.trunc_m=0.02"],
+          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK)
 first = p.stdout.readline()
 p.send_signal(signal.SIGTERM)
-p.communicate(timeout=10)
+p.communicate(timeout=10 * SLOW)
 check("board am335x" in first and "voxel 0.004 m, truncation 0.02 m" in first, "board defaults + --set: " + first.strip())
 
 # --- a run -----------------------------------------------------------------------------------
@@ -85,12 +88,12 @@ probe.bind(("127.0.0.1", 0))
 udp_port = probe.getsockname()[1]
 probe.close()
 log = open(os.path.join(WORK, "edgefused.log"), "w+")
-d = subprocess.Popen([EDGEFUSED, *SIM, "--set", "link.tcp_port=0", "--set", "console.echo=false",
-                      "--set", "link.udp_host=127.0.0.1", "--set", "link.udp_port=%d" % udp_port,
-                      "--set", "link.heartbeat_ms=200", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
-                     stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
+d = popen([*EMU, EDGEFUSED, *SIM, "--set", "link.tcp_port=0", "--set", "console.echo=false",
+           "--set", "link.udp_host=127.0.0.1", "--set", "link.udp_port=%d" % udp_port,
+           "--set", "link.heartbeat_ms=200", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
+          stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
 info = {}
-end = time.monotonic() + 10
+end = time.monotonic() + 10 * SLOW
 while time.monotonic() < end and "ready" not in info:
     time.sleep(0.05)
     log.seek(0)
@@ -115,34 +118,35 @@ time.sleep(0.2)
 r = command(con, "status")
 check("state MAPPING" in r and "device xtion" in r, "console: status shows MAPPING and the devices")
 
-listen = subprocess.Popen([EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "2",
-                           "--timeout-s", "10"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-listen_py = subprocess.Popen(["/usr/bin/python3", LISTEN_PY, "--tcp", "127.0.0.1:%d" % port, "--csv",
-                              "--count", "1", "--timeout-s", "10"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-hb = subprocess.Popen([EDGEFUSE, "listen", "--serial", info["link"], "--timeout-s", "5", "--count", "1"],
-                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-udp = subprocess.Popen([EDGEFUSE, "listen", "--udp", str(udp_port), "--csv", "--count", "1", "--timeout-s", "10"],
-                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+wait_s = "%g" % (10 * SLOW)  # the listeners' own time-outs
+listen = popen([*EMU, EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "2",
+                "--timeout-s", wait_s], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+listen_py = popen(["/usr/bin/python3", LISTEN_PY, "--tcp", "127.0.0.1:%d" % port, "--csv",
+                   "--count", "1", "--timeout-s", wait_s],
+                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+hb = popen([*EMU, EDGEFUSE, "listen", "--serial", info["link"], "--timeout-s", "%g" % (5 * SLOW), "--count",
+            "1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+udp = popen([*EMU, EDGEFUSE, "listen", "--udp", str(udp_port), "--csv", "--count", "1", "--timeout-s",
+             wait_s], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 # Localise until every listener has what it waits for: they connect at their own pace (listen.py
 # runs protoc first), so a fixed pause would be flaky on a loaded machine.
 localized = 0
-end = time.monotonic() + 30
+end = time.monotonic() + 30 * SLOW
 while time.monotonic() < end and any(x.poll() is None for x in (listen, listen_py, udp, hb)):
     r = command(con, "localize")
     localized += r.endswith("OK\r\n")
     time.sleep(0.3)
 check(localized >= 2, "console: localize (%d times)" % localized)
-out, err = listen.communicate(timeout=20)
+out, err = listen.communicate(timeout=20 * SLOW)
 check(listen.returncode == 0, "edgefuse listen --tcp got 2 results: " + err.strip())
 check_csv(out, "edgefuse listen")
-out, err = listen_py.communicate(timeout=20)
+out, err = listen_py.communicate(timeout=20 * SLOW)
 check(listen_py.returncode == 0, "listen.py --tcp got a result: " + err.strip())
 check_csv(out, "listen.py")
-out, err = udp.communicate(timeout=20)
+out, err = udp.communicate(timeout=20 * SLOW)
 check(udp.returncode == 0, "edgefuse listen --udp got a result: " + err.strip())
 check_csv(out, "edgefuse listen --udp")
-out, err = hb.communicate(timeout=20)
+out, err = hb.communicate(timeout=20 * SLOW)
 check("heartbeat seq=" in out and "protocol=1" in out, "edgefuse listen --serial sees heartbeats on the link pty")
 check(hb.returncode == 0 and "result seq=" in out, "edgefuse listen --serial sees a result on the link pty")
 
@@ -163,7 +167,7 @@ check(SANITIZED or (before > 0 and after == before), "VmData flat over 30 locali
 
 # --- clean stop ------------------------------------------------------------------------------
 d.send_signal(signal.SIGTERM)
-rc = d.wait(timeout=10)
+rc = d.wait(timeout=10 * SLOW)
 log.seek(0)
 text = log.read()
 check(rc == 0 and "stopped by SIGTERM" in text, "SIGTERM stops it cleanly (exit %d)" % rc)
@@ -177,13 +181,19 @@ if os.path.exists(notify_path):
 notify = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
 notify.bind(notify_path)
 env = dict(os.environ, NOTIFY_SOCKET=notify_path, WATCHDOG_USEC="200000")
-proc = subprocess.Popen([EDGEFUSED, *SIM, "--set", "link.tcp=false", "--set", "console.serial=", "--set", "link.serial=",
-                         "--set", "calib.dir=" + os.path.join(WORK, "calib")],
-                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK, env=env)
+proc = popen([*EMU, EDGEFUSED, *SIM, "--set", "link.tcp=false", "--set", "console.serial=", "--set",
+              "link.serial=", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
+             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK, env=env)
+# 0.7 s of running after READY=1 (start-up itself takes longer under an emulator).
+notes = []
+notify.settimeout(10 * SLOW)
+try:
+    notes.append(notify.recv(256).decode())
+except socket.timeout:
+    pass
 time.sleep(0.7)
 proc.send_signal(signal.SIGINT)
-out, _ = proc.communicate(timeout=10)
-notes = []
+out, _ = proc.communicate(timeout=10 * SLOW)
 notify.setblocking(False)
 try:
     while True:
@@ -200,11 +210,11 @@ spec = importlib.util.spec_from_file_location("listen", LISTEN_PY)
 listen_mod = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(listen_mod)
 pb2 = listen_mod.load_pb2()
-proc = subprocess.Popen([EDGEFUSED, *SIM, "--set", "link.tcp=false", "--set", "console.serial=link",
-                         "--set", "console.echo=false", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
-                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK)
+proc = popen([*EMU, EDGEFUSED, *SIM, "--set", "link.tcp=false", "--set", "console.serial=link",
+              "--set", "console.echo=false", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
+             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK)
 link_dev = None
-end = time.monotonic() + 10
+end = time.monotonic() + 10 * SLOW
 while time.monotonic() < end and link_dev is None:
     line = proc.stdout.readline()
     if line.startswith("link: "):
@@ -213,26 +223,38 @@ shared = open_raw(link_dev)
 os.write(shared, b"scan start\r")
 time.sleep(0.3)
 os.write(shared, b"localize\r")
+
+
+def decode(data):
+    """The results among the link frames of `data` (console text between them), and the stats."""
+    stats = listen_mod.Stats()
+    results = []
+    for block in data.split(b"\0"):
+        if not block:
+            continue
+        payload = listen_mod.check_frame(block, stats)
+        if payload is not None:
+            m = pb2.Message()
+            m.ParseFromString(payload)
+            if m.WhichOneof("body") == "result":
+                results.append(m.result)
+    return results, stats
+
+
+# Everything of 1.5 s; under an emulator, longer until both replies and a result are in.
 data = b""
-end = time.monotonic() + 1.5
-while time.monotonic() < end:
+t0 = time.monotonic()
+while True:
+    now = time.monotonic()
+    if now >= t0 + 1.5 * SLOW or (now >= t0 + 1.5 and data.count(b"OK\r\n") >= 2 and decode(data)[0]):
+        break
     r, _, _ = select.select([shared], [], [], 0.1)
     if r:
         data += os.read(shared, 65536)
 proc.send_signal(signal.SIGTERM)
-proc.communicate(timeout=10)
+proc.communicate(timeout=10 * SLOW)
 os.close(shared)
-stats = listen_mod.Stats()
-results = []
-for block in data.split(b"\0"):
-    if not block:
-        continue
-    payload = listen_mod.check_frame(block, stats)
-    if payload is not None:
-        m = pb2.Message()
-        m.ParseFromString(payload)
-        if m.WhichOneof("body") == "result":
-            results.append(m.result)
+results, stats = decode(data)
 check(data.count(b"OK\r\n") >= 2, "shared port: console replies arrive on the link's port")
 check(len(results) == 1 and len(results[0].objects) == 3,
       "shared port: the result decodes between the console's text (%d results, %d bad blocks)"

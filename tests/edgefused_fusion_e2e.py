@@ -13,11 +13,17 @@ small fragments by the xtion and is not required (nor is box 3 in the fixed-poin
 `edgefuse localize` misses it too); no reported pose may be unmatched (a false
 positive above localize.min_score).
 
-usage: edgefused_fusion_e2e.py EDGEFUSED EDGEFUSE DATA_DIR WORKDIR [sanitized|plain] [fixed|float]
+usage: edgefused_fusion_e2e.py [--emulator CMD] [--time-factor F] [--no-sim-scene]
+                               EDGEFUSED EDGEFUSE DATA_DIR WORKDIR [sanitized|plain] [fixed|float]
 Skips (exit 0 with a message) when DATA_DIR/bin_rig_a is absent. A second run tracks the poses
 (tracking.poses=tracked, starting at the recording's pose with tracking.sim_truth=true); a third
 uses the sim backend's own scene at its known poses (no replay, no models): model-free segments
 must lie at every object of objects.txt.
+  --emulator, --time-factor  the ARM builds run the programs under qemu-user, slower
+                             (edgefused_helpers.emulation): the recording plays slower there
+                             (REPLAY_SPEED), the checks are the same
+  --no-sim-scene             no third run: the build's board lists real cameras in its hal.toml (the
+                             sim backend's scene is host-sim's)
 """
 import os
 import re
@@ -30,8 +36,12 @@ import termios
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import command, open_raw, vm_data_kib  # noqa: E402
+from edgefused_helpers import command, emulation, open_raw, popen, vm_data_kib  # noqa: E402
 
+EMU, SLOW = emulation(sys.argv)
+SIM_SCENE = "--no-sim-scene" not in sys.argv
+if not SIM_SCENE:
+    sys.argv.remove("--no-sim-scene")
 EDGEFUSED, EDGEFUSE, DATA, WORK = (os.path.abspath(a) for a in sys.argv[1:5])
 # Under AddressSanitizer its own bookkeeping maps memory: the flat-memory check is skipped there.
 SANITIZED = len(sys.argv) > 5 and sys.argv[5] == "sanitized"
@@ -41,6 +51,14 @@ FIXED = len(sys.argv) > 6 and sys.argv[6] == "fixed"
 RIG = os.path.join(DATA, "bin_rig_a")
 REQUIRED = [1, 2, 4, 6] if FIXED else [1, 2, 3, 4, 6]
 TOL_MM, TOL_DEG = 5.0, 5.0
+# Playback speeds of the replayed runs (known poses, tracked): each camera streams on its own thread
+# with the newest-frame policy, so a frame is dropped when processing falls behind the recording's
+# rate, and the poses depend on every frame being in the map (the reasons at each run). Under
+# qemu-user a 2 mm frame takes about 1 s at known poses and 2 s tracked (raycast and ICP too) on
+# the 2-core VM with one other test running, and several times that when builds run beside it, so
+# there the recording's 200 ms frames play at 4 s in both runs (on the host at 400 and 800 ms).
+# Measured there at a load of 9-12: no frame dropped at 4 s; at 2 s the known-pose run dropped 4.
+REPLAY_SPEED = (0.05, 0.05) if EMU else (0.5, 0.25)
 failures = []
 
 
@@ -50,14 +68,24 @@ def check(cond, what):
         failures.append(what)
 
 
+def finish(text):
+    """Ends the test: the failed checks and edgefused's last output, or that all passed."""
+    if failures:
+        print(text)
+        print("%d check(s) failed" % len(failures))
+        sys.exit(1)
+    print("all checks passed")
+    sys.exit(0)
+
+
 def start(extra, logname):
     """Starts edgefused; returns (process, log file, startup info)."""
     log = open(os.path.join(WORK, logname), "w+")
-    d = subprocess.Popen([EDGEFUSED, "--set", "link.tcp_port=0", "--set", "link.serial=", "--set", "console.echo=false",
-                          "--set", "calib.dir=" + os.path.join(WORK, "calib")] + extra,
-                         stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
+    d = popen(EMU + [EDGEFUSED, "--set", "link.tcp_port=0", "--set", "link.serial=", "--set",
+                     "console.echo=false", "--set", "calib.dir=" + os.path.join(WORK, "calib")] +
+              extra, stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
     info = {}
-    end = time.monotonic() + 120  # start-up samples the models (a few seconds; more under sanitizers)
+    end = time.monotonic() + 120 * SLOW  # start-up samples the models (a few seconds; more under sanitizers)
     while time.monotonic() < end and "ready" not in info and d.poll() is None:
         time.sleep(0.1)
         log.seek(0)
@@ -72,7 +100,7 @@ def start(extra, logname):
 def stop(d, log, results):
     d.send_signal(signal.SIGTERM)
     try:
-        d.wait(timeout=30)
+        d.wait(timeout=30 * SLOW)
     except subprocess.TimeoutExpired:
         d.kill()
         d.wait()
@@ -89,12 +117,15 @@ if not os.path.isfile(os.path.join(RIG, "objects.txt")):
 shutil.rmtree(WORK, ignore_errors=True)
 os.makedirs(WORK)
 
-# Half speed (100 ms of recording per 200 ms): each camera streams on its own thread with the
+# Half speed on the host (100 ms of recording per 200 ms; REPLAY_SPEED): each camera streams on its own thread with the
 # newest-frame policy, so a frame is dropped when processing falls behind the camera, and five
 # helpers compiling on a 2-core machine slow the integration several-fold (measured: 8 of 20 frames
 # dropped at the recorded rate under a load of 9). The poses depend on every frame being in the map.
+# The still period (after the recording ends) outlasts the calib fuse checks below, which run before
+# the automatic localisation: 1 s, times the time factor under an emulator.
 d, log, info = start(["--set", "sensors.replay=" + RIG, "--set", "tracking.poses=known", "--set",
-                      "localize.still_period_s=1", "--set", "sensors.replay_speed=0.5"], "edgefused.log")
+                      "localize.still_period_s=%g" % (1 * SLOW), "--set",
+                      "sensors.replay_speed=%g" % REPLAY_SPEED[0]], "edgefused.log")
 check("ready" in info, "edgefused started with the real pipeline on the replay of bin_rig_a")
 log.seek(0)
 startup = log.read()
@@ -104,6 +135,13 @@ if "ready" not in info:
     print(startup)
     d.kill()
     sys.exit(1)
+# The board's cameras stream (its hal.toml's, each replaying the set's sensor of its name): host-sim
+# and rpi4 have the xtion and the tof, am335x the xtion only, so there is no pair to calibrate.
+m = re.search(r"^sensors: (.*) stream", startup, re.M)
+HAS_TOF = m is not None and "tof" in [n.strip() for n in m.group(1).split(",")]
+# The map's voxel edge (the board's [tsdf] default: 2 mm, am335x 4 mm).
+m = re.search(r"volume \d+\^3 x (\S+) mm", startup)
+VOXEL_MM = float(m.group(1)) if m else 0.0
 port = int(info["tcp"].rsplit(":", 1)[1])
 con = open_raw(info["console"])
 
@@ -116,8 +154,9 @@ for line in r.split("\r\n"):
 check(sorted(models.values()) == ["box.ply", "bracket.ply", "can.ply", "cylinder.ply"],
       "model list: the rig's four models: %s" % models)
 
-listen = subprocess.Popen([EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "2",
-                           "--timeout-s", "120"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+listen = popen(EMU + [EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "2",
+                      "--timeout-s", "%g" % (120 * SLOW)],
+               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 time.sleep(0.5)  # the listener connects
 check(command(con, "scan start").endswith("OK\r\n"), "console: scan start")
 # The recording is one scan: its 20 frames are integrated once each, then the camera reports the
@@ -129,7 +168,7 @@ drops = -1
 # The camera thread reports the end of the recording as soon as it has published the last frame;
 # the main loop integrates that frame a moment later (on a loaded machine, after the status
 # reply): wait until every frame is accounted for, integrated or dropped.
-while time.monotonic() < t0 + 120 and ("end of recording" not in status or frames + drops < 20):
+while time.monotonic() < t0 + 120 * SLOW and ("end of recording" not in status or frames + drops < 20):
     time.sleep(0.3)
     status = command(con, "status")
     m = re.search(r"frames (\d+)", status)
@@ -142,14 +181,19 @@ check("end of recording" in status and frames + drops == 20 and frames >= 18,
       "mapping: %d frames integrated (%d dropped), then end of recording" % (frames, drops))
 # Every camera streams on its own acquisition thread and shows its counters, the tof too.
 check(re.search(r"device xtion ended \(end of recording\) \(map\) frames 20 published 20", status) is not None and
-      re.search(r"device tof ended \(end of recording\) \(not in the map\) frames 20 published 20", status) is not None
+      (not HAS_TOF or
+       re.search(r"device tof ended \(end of recording\) \(not in the map\) frames 20 published 20", status) is not None)
       and "rejects size 0 stamp 0 all_invalid 0 driver 0" in status and "faults timeouts" in status,
-      "status: both cameras' acquisition counters")
+      "status: %s acquisition counters" % ("both cameras'" if HAS_TOF else "the camera's"))
 
 # calib fuse on the live map: the tof's newest frame registered to the xtion's map, starting from
 # the set's extrinsics; the result within 5 mm / 1 degree of extrinsics.txt (the calibration's
 # 1-sigma is ~1 mm; measured 1.5 mm / 0.3 deg), stored and saved. Refusals are ERR 6 with the reason.
-r = command(con, "calib fuse xtion tof", timeout=60)
+if HAS_TOF:
+    r = command(con, "calib fuse xtion tof", timeout=60)
+else:  # no pair to calibrate: refused, naming the camera
+    r = command(con, "calib fuse xtion tof")
+    check("ERR 6 no camera 'tof'" in r, "calib fuse xtion tof refused (no tof on this board): " + r.strip())
 m = re.search(r"T_xtion_tof: t (\S+) (\S+) (\S+) q (\S+) (\S+) (\S+) (\S+)", r)
 ok = m is not None and r.endswith("saved\r\nOK\r\n") and "uncertainty (1 sigma, tof frame)" in r
 if ok:
@@ -163,18 +207,21 @@ if ok:
     dr_deg = math.degrees(2 * math.acos(dot))
     ok = dt_mm <= 5.0 and dr_deg <= 1.0
     print("calib fuse: %.2f mm / %.3f deg from extrinsics.txt" % (dt_mm, dr_deg))
-check(ok, "calib fuse xtion tof: T and uncertainty, saved: " + r.strip().replace("\r\n", " | "))
-check(os.listdir(os.path.join(WORK, "calib")) != [], "calib fuse: a calibration slot written")
-r = command(con, "calib show")
-check("T_xtion_tof:" in r, "calib show lists T_xtion_tof")
+if HAS_TOF:
+    check(ok, "calib fuse xtion tof: T and uncertainty, saved: " + r.strip().replace("\r\n", " | "))
+    calib_dir = os.path.join(WORK, "calib")
+    check(os.path.isdir(calib_dir) and os.listdir(calib_dir) != [], "calib fuse: a calibration slot written")
+    r = command(con, "calib show")
+    check("T_xtion_tof:" in r, "calib show lists T_xtion_tof")
 r = command(con, "calib fuse xtion laser")
 check("ERR 6 'laser' is a line scanner" in r, "calib fuse xtion laser refused: " + r.strip())
-r = command(con, "calib fuse tof xtion")
-check("ERR 6 the map is built at xtion's poses" in r, "calib fuse tof xtion refused: " + r.strip())
+if HAS_TOF:
+    r = command(con, "calib fuse tof xtion")
+    check("ERR 6 the map is built at xtion's poses" in r, "calib fuse tof xtion refused: " + r.strip())
 r = command(con, "calib fuse xtion nosuch")
 check("ERR 6 no camera 'nosuch'" in r, "calib fuse xtion nosuch refused: " + r.strip())
 results = 0
-while time.monotonic() < t0 + 180 and results < 1:
+while time.monotonic() < t0 + 180 * SLOW and results < 1:
     time.sleep(0.3)
     m = re.search(r"results (\d+)", command(con, "status"))
     results = int(m.group(1)) if m else 0
@@ -184,7 +231,7 @@ r = command(con, "localize")
 check(r.endswith("OK\r\n"), "console: localize: " + r.strip())
 t1 = time.monotonic()
 try:
-    out, err = listen.communicate(timeout=150)
+    out, err = listen.communicate(timeout=150 * SLOW)
 except subprocess.TimeoutExpired:
     listen.kill()
     out, err = listen.communicate()
@@ -204,8 +251,8 @@ for seq in (0, 1):
     with open(est, "w") as f:
         for k, r in enumerate(mine):
             f.write("%d %s %s %s\n" % (k + 1, " ".join(r[3:10]), r[10], models.get(int(r[2]), "unknown")))
-    ev = subprocess.run([EDGEFUSE, "eval", "poses", est, os.path.join(RIG, "objects.txt")], capture_output=True,
-                        text=True)
+    ev = subprocess.run(EMU + [EDGEFUSE, "eval", "poses", est, os.path.join(RIG, "objects.txt")],
+                        capture_output=True, text=True)
     print(ev.stdout.strip())
     check(ev.returncode == 0, "result %d: eval poses ran %s" % (seq, ev.stderr.strip()))
     for oid in REQUIRED:
@@ -237,17 +284,18 @@ if failures:
 d, log, info = start(["--set", "sensors.replay=" + RIG, "--set", "localize.still_period_s=1", "--set",
                       "tracking.poses=tracked", "--set", "tracking.sim_truth=true",
                       "--set", "tracking.push_every_frame=true",
-                      "--set", "sensors.replay_speed=0.25"], "edgefused_tracked.log")
+                      "--set", "sensors.replay_speed=%g" % REPLAY_SPEED[1]], "edgefused_tracked.log")
 check("ready" in info, "edgefused started with tracking.poses=tracked")
 if "ready" in info:
     port = int(info["tcp"].rsplit(":", 1)[1])
     con = open_raw(info["console"])
-    listen = subprocess.Popen([EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "1",
-                               "--timeout-s", "150"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    listen = popen(EMU + [EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "1",
+                          "--timeout-s", "%g" % (150 * SLOW)],
+                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(0.5)
     check(command(con, "scan start").endswith("OK\r\n"), "tracked: scan start")
     try:
-        out, err = listen.communicate(timeout=200)
+        out, err = listen.communicate(timeout=200 * SLOW)
     except subprocess.TimeoutExpired:
         listen.kill()
         out, err = listen.communicate()
@@ -259,10 +307,13 @@ if "ready" in info:
     with open(est, "w") as f:
         for k, r in enumerate(rows):
             f.write("%d %s %s %s\n" % (k + 1, " ".join(r[3:10]), r[10], models.get(int(r[2]), "unknown")))
-    ev = subprocess.run([EDGEFUSE, "eval", "poses", est, os.path.join(RIG, "objects.txt")], capture_output=True,
-                        text=True)
+    ev = subprocess.run(EMU + [EDGEFUSE, "eval", "poses", est, os.path.join(RIG, "objects.txt")],
+                        capture_output=True, text=True)
     print(ev.stdout.strip())
-    for oid in range(1, 7):
+    # All six on a 2 mm map; on a 4 mm map (board am335x) not object 5, the upright bracket: the two
+    # small fragments of it the xtion sees (above) hold a quarter of the points there (measured: not
+    # found in the Q16.16 am335x build under qemu; the known-pose run never requires it).
+    for oid in [1, 2, 3, 4, 5, 6] if VOXEL_MM <= 2.0 else [1, 2, 3, 4, 6]:
         m = re.search(r"^object %d \((\S+)\): est #\d+ score \S+\s+t_err (\S+) mm\s+r_err (\S+) deg" % oid, ev.stdout,
                       re.M)
         ok = m is not None and float(m.group(2)) <= TOL_MM and float(m.group(3)) <= TOL_DEG
@@ -276,6 +327,10 @@ if "ready" in info:
           "tracked: %s" % (m.group(0) if m else "no tracking line"))
 else:
     d.kill()
+
+if not SIM_SCENE:
+    print("skip the sim backend's scene: this board's hal.toml lists real cameras (host-sim's has the sim rig)")
+    finish(text)
 
 # --- the sim backend's own scene (no replay): bin_rig_a's objects as analytic solids, no models
 # configured, so localize reports model-free segments (id 0) at box centres of the visible parts.
@@ -303,14 +358,15 @@ check("ready" in info, "edgefused started on the sim backend (no replay)")
 if "ready" in info:
     port = int(info["tcp"].rsplit(":", 1)[1])
     con = open_raw(info["console"])
-    listen = subprocess.Popen([EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "1",
-                               "--timeout-s", "120"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    listen = popen(EMU + [EDGEFUSE, "listen", "--tcp", "127.0.0.1:%d" % port, "--csv", "--count", "1",
+                          "--timeout-s", "%g" % (120 * SLOW)],
+                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(0.5)
     r = command(con, "calib fuse xtion tof")
     check("ERR 6 the map is empty" in r, "sim: calib fuse before a scan refused: " + r.strip())
     check(command(con, "scan start").endswith("OK\r\n"), "sim: scan start")
     frames = 0
-    end = time.monotonic() + 120
+    end = time.monotonic() + 120 * SLOW
     while time.monotonic() < end and frames < 30:
         time.sleep(0.5)
         m = re.search(r"frames (\d+)", command(con, "status"))
@@ -318,7 +374,7 @@ if "ready" in info:
     check(frames >= 30, "sim: %d frames integrated at the simulated rig's poses" % frames)
     check(command(con, "localize").endswith("OK\r\n"), "sim: localize")
     try:
-        out, err = listen.communicate(timeout=150)
+        out, err = listen.communicate(timeout=150 * SLOW)
     except subprocess.TimeoutExpired:
         listen.kill()
         out, err = listen.communicate()
@@ -345,8 +401,4 @@ else:
     d.kill()
     log.seek(0)
     text = log.read()
-if failures:
-    print(text)
-    print("%d check(s) failed" % len(failures))
-    sys.exit(1)
-print("all checks passed")
+finish(text)

@@ -1,9 +1,62 @@
 """Helpers shared by the edgefused end-to-end tests (edgefused_e2e.py, edgefused_fusion_e2e.py):
-the console pseudo-terminal in raw mode, one console command and its reply, the process's VmData."""
+the options of a run under an emulator, the programs they start (stopped when the test ends, also
+on an exception), the console pseudo-terminal in raw mode, one console command and its reply, the
+process's VmData."""
+import atexit
 import os
 import select
+import shlex
+import subprocess
 import termios
 import time
+
+# Waits (not tolerances) are multiplied by this under an emulator (emulation()).
+TIME_FACTOR = 1.0
+
+
+def emulation(argv):
+    """Takes the options of a run under an emulator out of argv (the ARM builds run their tests
+    under qemu-user) and returns (prefix, factor):
+      --emulator "CMD ARGS"  the command that runs the build's programs (CMAKE_CROSSCOMPILING_EMULATOR
+                             joined by spaces), put in front of every edgefused / edgefuse spawned
+      --time-factor F        how much slower the programs run there: every wait for a port, a reply
+                             or a result is F times longer (command()'s default wait included)
+    Without them: ([], 1)."""
+    global TIME_FACTOR
+    prefix, factor, rest = [], 1.0, [argv[0]]
+    i = 1
+    while i < len(argv):
+        if argv[i] in ("--emulator", "--time-factor") and i + 1 < len(argv):
+            if argv[i] == "--emulator":
+                prefix = shlex.split(argv[i + 1])
+            else:
+                factor = float(argv[i + 1])
+            i += 2
+        else:
+            rest.append(argv[i])
+            i += 1
+    argv[:] = rest
+    TIME_FACTOR = factor
+    return prefix, factor
+
+
+_started = []
+
+
+def popen(args, **kwargs):
+    """subprocess.Popen, the process killed at exit if it still runs (a failed check or an exception
+    must not leave an edgefused streaming in the background)."""
+    p = subprocess.Popen(args, **kwargs)
+    _started.append(p)
+    return p
+
+
+@atexit.register
+def _kill_started():
+    for p in _started:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
 
 
 def open_raw(dev):
@@ -19,10 +72,11 @@ def open_raw(dev):
 
 
 def command(fd, line, timeout=10.0):
-    """Sends a console line, returns the reply up to and including OK / ERR (or what came by timeout)."""
+    """Sends a console line, returns the reply up to and including OK / ERR (or what came by timeout,
+    in seconds on the host: TIME_FACTOR times that under an emulator)."""
     os.write(fd, (line + "\r").encode())
     got = b""
-    end = time.monotonic() + timeout
+    end = time.monotonic() + timeout * TIME_FACTOR
     while time.monotonic() < end:
         r, _, _ = select.select([fd], [], [], 0.1)
         if r:

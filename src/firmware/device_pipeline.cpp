@@ -33,6 +33,18 @@ Pose to_pose(const runtime::CalibPose& p) {
   return Pose::from_tq(p.tq[0], p.tq[1], p.tq[2], p.tq[3], p.tq[4], p.tq[5], p.tq[6]);
 }
 
+// The acquisition worker's stall limit for a camera: its default (1 s without a frame), or three
+// frame periods of a camera slower than that allows: a replay in slow motion (a 5 fps recording at
+// sensors.replay_speed 0.1 delivers a frame every 2 s) would otherwise be taken for stalled and
+// reopened, that is restarted from its first frame, between every two frames.
+uint32_t stall_limit_ms(hal::DepthCamera& camera, bool replayed, double replay_speed) {
+  const uint32_t standard = hal::CameraWorkerConfig().stall_ms;
+  hal::DepthMode mode;
+  if (!camera.mode(0, mode) || mode.fps <= 0) return standard;
+  const double period_ms = 1000.0 / (double(mode.fps) * (replayed ? replay_speed : 1.0));
+  return std::max(standard, uint32_t(std::ceil(3.0 * period_ms)));
+}
+
 runtime::TrackingState runtime_state(TrackState s) {
   return s == TrackState::kOk         ? runtime::TrackingState::kOk
          : s == TrackState::kDegraded ? runtime::TrackingState::kDegraded
@@ -53,8 +65,10 @@ bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) 
           " (build that board's preset)";
     return false;
   }
-  // Devices from the board's hal.toml (sensors.replay: every camera replays the rig set instead).
-  const std::string hal_path = std::string(kBoardSourceDir) + "/" + config.board + "/hal.toml";
+  // Devices from the board's hal.toml or config.hal_file (sensors.replay: every camera replays the
+  // rig set instead).
+  const std::string hal_path =
+      config.hal_file.empty() ? std::string(kBoardSourceDir) + "/" + config.board + "/hal.toml" : config.hal_file;
   hal::BoardDefaults defaults;
   if (!init_cameras(hal_path, err) || !init_fused(hal_path, err) || !hal::read_board_defaults(config.board, defaults, err))
     return false;
@@ -353,6 +367,8 @@ bool DevicePipeline::start_mapping(const char** why) {
         return false;
       }
       hal::CameraWorkerConfig wc;
+      const bool replayed = !config_.replay.empty() || devices_.camera_config(i).backend == io::CameraBackend::kReplay;
+      wc.stall_ms = stall_limit_ms(devices_.camera(i), replayed, config_.replay_speed);
       if (!c.worker->start(wc)) {
         *why = "the acquisition thread did not start";
         return false;

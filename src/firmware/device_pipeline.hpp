@@ -82,6 +82,8 @@ struct DevicePipelineConfig {
   bool push_every_frame = false;  //!< tracked: integrate every frame (else after 1 cm / 1 degree)
   double replay_speed = 1;  //!< replayed cameras' playback speed (1: the recorded rate)
   std::string fuse;         //!< cameras feeding the map, "a,b" (first: reference); "" : hal.toml's first
+  std::string hal_file;     //!< the devices' hal.toml ("" : the board's); memory stays the board's (the
+                            //!< tests of a target board's build run host-sim's simulated rig with it)
 };
 
 class DevicePipeline final : public runtime::Pipeline {

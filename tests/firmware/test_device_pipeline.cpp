@@ -2,6 +2,9 @@
 // through the HAL, filters, known or tracked poses, integration and a model-free localisation, with
 // no heap allocation once started (mapping, tracking and the localisation thread), and the states
 // the runtime sees (empty map refused, tracking state, still detection off while the rig moves).
+// Every build runs it on its own board (its memory map and [tsdf] defaults) with host-sim's
+// devices: the target boards' hal.toml list real cameras, so the ARM builds (under qemu) run the
+// same simulated rig through DevicePipelineConfig::hal_file.
 #include <time.h>
 #include <algorithm>
 #include <cmath>
@@ -13,6 +16,7 @@
 #include "alloc_counter.hpp"
 #include "test_support.hpp"
 #include "edgefuse/board_config.hpp"
+#include "edgefuse/hal/platform/config/board_defaults.hpp"
 #include "edgefuse/fusion/fusion_rules.hpp"
 #include "device_pipeline.hpp"
 #include "edgefuse/hal/sim/fault_camera.hpp"
@@ -35,12 +39,34 @@ void sleep_ms(int ms) {
   nanosleep(&t, nullptr);
 }
 
-// Steps until `frames` more frames were processed (at most 60 s).
-bool step_frames(firmware::DevicePipeline& p, uint32_t frames) {
+// The build's board with host-sim's simulated rig (its xtion, tof and laser), voxel and truncation
+// of the board's [tsdf] defaults as edgefused takes them (am335x: 4 mm, its 128^3 volume spans the
+// bin only so; the others 2 mm).
+firmware::DevicePipelineConfig sim_rig_config() {
+  firmware::DevicePipelineConfig c;
+  c.board = kBuildBoard.name;
+  c.hal_file = std::string(kBoardSourceDir) + "/host-sim/hal.toml";
+  hal::BoardDefaults d;
+  std::string err;
+  CHECK_TRUE_TEXT(hal::read_board_defaults(c.board, d, err), err.c_str());
+  c.voxel_m = d.voxel_m;
+  c.trunc_m = d.trunc_m;
+  return c;
+}
+
+// Steps until `frames` more frames were processed (at most 60 s). frame_steps_us (optional, two):
+// the times handed to the steps that processed the last two frames, older first.
+bool step_frames(firmware::DevicePipeline& p, uint32_t frames, uint64_t* frame_steps_us = nullptr) {
   const uint32_t target = p.stats().frames + frames;
   const uint64_t end = now_us() + 60000000u;
   while (p.stats().frames < target && now_us() < end) {
-    p.step(now_us());
+    const uint32_t before = p.stats().frames;
+    const uint64_t t = now_us();
+    p.step(t);
+    if (frame_steps_us != nullptr && p.stats().frames != before) {
+      frame_steps_us[0] = frame_steps_us[1];
+      frame_steps_us[1] = t;
+    }
     sleep_ms(2);
   }
   return p.stats().frames >= target;
@@ -60,8 +86,7 @@ bool localize(firmware::DevicePipeline& p, runtime::LocalizationOutcome& r) {
 
 // Tracked: from the sim robot's flange pose (simulator truth allowed), as edgefused on host-sim.
 void run_pipeline(bool tracked) {
-  firmware::DevicePipelineConfig c;
-  c.board = kBuildBoard.name;
+  firmware::DevicePipelineConfig c = sim_rig_config();
   c.known_poses = !tracked;
   c.use_sim_truth = tracked;
   c.push_every_frame = true;
@@ -79,20 +104,26 @@ void run_pipeline(bool tracked) {
   CHECK_TRUE(step_frames(*p, 3));  // warm-up: the first frame centres the volume
   CHECK_FALSE(p->map_empty());
   edgefuse_test::alloc_count_start();
-  CHECK_TRUE(step_frames(*p, 5));
+  uint64_t frame_steps_us[2] = {0, 0};
+  CHECK_TRUE(step_frames(*p, 5, frame_steps_us));
   const uint64_t still_since = p->stats().still_since_us;  // before localising: mapping pauses then
-  const uint64_t mapped_us = now_us();
   CHECK_TRUE(localize(*p, r));
   const long allocations = edgefuse_test::alloc_count();
   CHECK_EQUAL(0L, allocations);
 
   CHECK_TRUE(runtime::TrackingState::kOk == p->stats().tracking);
   // The simulated rig sways on its circle at 2 pi 0.02 m / 8 s = 15.7 mm/s: it leaves the 1 mm
-  // still tolerance within 64 ms, so it is never still for long (at any frame rate).
-  CHECK_TRUE(still_since == 0 || mapped_us - still_since < 200000u);
+  // still tolerance within 64 ms, so it is never still for long (at any frame rate): still, if at
+  // all, since one of the last two frames (counted in frames: the detector takes the time of the
+  // step that processed a frame, and under an emulator one step takes seconds).
+  CHECK_TRUE(still_since == 0 || still_since >= frame_steps_us[0]);
   CHECK_FALSE(r.failed);
   CHECK_TRUE(r.stamp_us > 0);
-  CHECK_TRUE(r.count >= 4);  // bin_rig_a's six objects as segments (some may merge)
+  // bin_rig_a's six objects as segments (some may merge). A segment needs 150 surface points
+  // (LocalizeParams::segment_min_points); the map's surface holds a point per voxel of it, so at 4 mm
+  // (board am335x) a lying 60 x 40 mm box's top holds 150 at best and the boxes and the upright
+  // bracket drop out: the can, the lying bracket and the cylinder are left (600 points a box top at 2 mm).
+  CHECK_TRUE(r.count >= (c.voxel_m <= 0.002f ? 4 : 3));
   for (int i = 0; i < r.count; ++i) CHECK_EQUAL(0u, r.objects[i].id);
   p->stop_mapping();
   p->shutdown();
@@ -125,8 +156,7 @@ bool wait_state(firmware::DevicePipeline& p, hal::DeviceState s) {
 // mountings allowed (tracking.sim_truth), initialised (the checks are the calling test's) and not
 // mapping yet.
 std::unique_ptr<firmware::DevicePipeline> fusing_pipeline(const char* fuse) {
-  firmware::DevicePipelineConfig c;
-  c.board = kBuildBoard.name;
+  firmware::DevicePipelineConfig c = sim_rig_config();
   c.fuse = fuse;
   c.known_poses = true;
   c.use_sim_truth = true;
@@ -141,8 +171,7 @@ std::unique_ptr<firmware::DevicePipeline> fusing_pipeline(const char* fuse) {
 // reopening, rejects a garbage frame with a counted reason, waits out an unplug; tracking pauses
 // meanwhile and the map is kept (frames go on adding to it afterwards).
 TEST(DevicePipeline, CameraFaultsKeepTheMap) {
-  firmware::DevicePipelineConfig c;
-  c.board = kBuildBoard.name;
+  firmware::DevicePipelineConfig c = sim_rig_config();
   c.known_poses = true;
   c.inject_faults = true;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
@@ -197,10 +226,20 @@ TEST(DevicePipeline, CameraFaultsKeepTheMap) {
   p->shutdown();
 }
 
+// The simulated devices at their real-time rates: pairing two cameras' frames, the line scanner's
+// 100 Hz profiles. Under an emulator (the ARM builds' qemu-user: tests/CMakeLists.txt leaves this
+// group out there) neither holds: the sim camera stamps a frame when it starts rendering it, and the
+// xtion's 320x240 render takes 0.3-1 s there, so the tof frame of the same instant has been compared
+// with the previous reference frame and let go long before the xtion's frame arrives (the pairing
+// window is 40 ms; on the host a render takes milliseconds); and the sim trigger delivers every edge
+// of its 10 ms period, missed ones too, so a scanner thread slower than that never catches up and
+// takes the cores from the cameras.
+TEST_GROUP(DevicePipelineRealTime){};
+
 // sensors.fuse = "xtion,tof": the tof's frames enter the map at the xtion's pose of the same
 // instant times the sim rig's mounting, weighted by its noise model; no heap while mapping; and
 // calib fuse on the live map recovers the mounting.
-TEST(DevicePipeline, TofFeedsTheMapAndCalibrates) {
+TEST(DevicePipelineRealTime, TofFeedsTheMapAndCalibrates) {
   std::unique_ptr<firmware::DevicePipeline> p = fusing_pipeline("xtion,tof");
   STRCMP_EQUAL("sim rig mounting", p->camera_stream(1).mount_source);
   const char* why = "";
@@ -220,7 +259,7 @@ TEST(DevicePipeline, TofFeedsTheMapAndCalibrates) {
   // xtion's fills sub-unit samples only to 3 units, so its support rule is 4 (rule 3), not the
   // evidence rule's 9.
   CHECK_TRUE(p->camera_stream(0).slot.sigma.frames >= 2 && p->camera_stream(1).slot.sigma.frames >= 2);
-  const float sigma_ref_m = 0.5f * firmware::DevicePipelineConfig().voxel_m;  // the pipeline's trust reference
+  const float sigma_ref_m = 0.5f * sim_rig_config().voxel_m;  // the pipeline's trust reference
   CHECK_FALSE(sub_unit_sensor(p->camera_stream(0).slot.median_sigma(), sigma_ref_m));
   CHECK_TRUE(sub_unit_sensor(p->camera_stream(1).slot.median_sigma(), sigma_ref_m));
   LONGS_EQUAL(kSubUnitFillUnits, p->mapper().sub_unit_fill());
@@ -274,7 +313,7 @@ TEST(DevicePipeline, TofFeedsTheMapAndCalibrates) {
 // reference frames) there is no velocity and the frame takes the last pose exactly (the product's
 // rule, PoseHistory::kVelocityGapMaxUs): each frame is checked by the rule that placed it. A CI run with the
 // former 100 ms limit placed one frame of eight so (0.046 mm off) and failed the velocity bound.
-TEST(DevicePipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
+TEST(DevicePipelineRealTime, PairedFramesTakeTheReferencePoseAtTheirStamp) {
   std::unique_ptr<firmware::DevicePipeline> p = fusing_pipeline("xtion,tof");
   const char* why = "";
   CHECK_TRUE(p->start_mapping(&why));
@@ -321,7 +360,7 @@ TEST(DevicePipeline, PairedFramesTakeTheReferencePoseAtTheirStamp) {
 
 // sensors.fuse = "xtion,laser": the sim line scanner's profiles (100 Hz, its own thread) enter the
 // map at the poses of the simulated axis, every one in order, without heap.
-TEST(DevicePipeline, LineScannerFeedsTheMap) {
+TEST(DevicePipelineRealTime, LineScannerFeedsTheMap) {
   std::unique_ptr<firmware::DevicePipeline> p = fusing_pipeline("xtion,laser");
   CHECK_EQUAL(3, p->device_count());
   STRCMP_EQUAL("laser", p->device_name(2));
@@ -344,8 +383,7 @@ TEST(DevicePipeline, LineScannerFeedsTheMap) {
 // the sim robot's pose (= the camera's true pose); a hand-eye of 10 mm along the flange's x moves
 // the start by that much along the flange's x axis.
 TEST(DevicePipeline, TrackingStartsAtFlangeTimesHandEye) {
-  firmware::DevicePipelineConfig c;
-  c.board = kBuildBoard.name;
+  firmware::DevicePipelineConfig c = sim_rig_config();
   c.use_sim_truth = true;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
@@ -365,8 +403,7 @@ TEST(DevicePipeline, TrackingStartsAtFlangeTimesHandEye) {
 // identity though the sim robot's pose is there, and a paired camera takes no sim mounting; no
 // FaultCameras unless asked for.
 TEST(DevicePipeline, SimTruthOnlyWhenConfigured) {
-  firmware::DevicePipelineConfig c;
-  c.board = kBuildBoard.name;
+  firmware::DevicePipelineConfig c = sim_rig_config();
   c.fuse = "xtion,tof";
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
@@ -390,8 +427,7 @@ TEST(DevicePipeline, KnownPosesWithoutTruthRefused) {
     fs::create_symlink(fs::path(rig) / e, dir / e);
   for (const char* e : {"depth", "depth.txt", "rgb", "rgb.txt"})  // no groundtruth.txt
     fs::create_symlink(fs::path(rig) / "xtion" / e, dir / "xtion" / e);
-  firmware::DevicePipelineConfig c;
-  c.board = kBuildBoard.name;
+  firmware::DevicePipelineConfig c = sim_rig_config();
   c.replay = dir.string();
   c.known_poses = true;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
@@ -406,8 +442,7 @@ TEST(DevicePipeline, KnownPosesWithoutTruthRefused) {
 
 // A sensor that is not a camera of hal.toml is refused at start-up with the key and the names.
 TEST(DevicePipeline, UnknownFuseSensorRefused) {
-  firmware::DevicePipelineConfig c;
-  c.board = kBuildBoard.name;
+  firmware::DevicePipelineConfig c = sim_rig_config();
   c.fuse = "xtion,kinect";
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
