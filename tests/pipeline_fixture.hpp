@@ -11,6 +11,7 @@
 
 #include "edgefuse/memory/arena.hpp"
 #include "edgefuse/memory/memmap.hpp"
+#include "edgefuse/pipeline/camera_slot.hpp"
 #include "edgefuse/pipeline/view_centre.hpp"
 #include "edgefuse/tsdf/volume.hpp"
 #include "scenes.hpp"
@@ -50,6 +51,31 @@ inline PinholeIntrinsics small_camera() {
 inline ImageView<uint16_t> spare_image(int w, int h) {
   const CoreBuffers& b = board_buffers();
   return ImageView<uint16_t>(b.depth_frames + std::size_t(build_board().sensors_max - 1) * b.pixels_per_sensor, w, h);
+}
+
+//! The pipeline tests' space: 64^3 voxels of 1 cm (truncation 4 voxels) in the board's voxel buffer.
+constexpr int kSpaceDim = 64;
+constexpr float kSpaceVoxelM = 0.01f;
+
+inline void init_space(TsdfVolume& volume, const Vec3f& origin) {
+  CHECK(volume.init(board_buffers().voxels, kSpaceDim, origin, TsdfParams::defaults_for(kSpaceVoxelM, 4 * kSpaceVoxelM)) ==
+        Status::kOk);
+}
+
+//! A structured-light camera in board slot `index`, without the bilateral filter: the rendered depth
+//! is exact, so the map can be held to it.
+inline void bind_camera(CameraSlot& slot, int index, const PinholeIntrinsics& cam) {
+  const char* why = "";
+  CHECK_TEXT(slot.bind(board_buffers(), build_board(), index, cam, DepthSensorKind::kStructuredLight, false, false,
+                       &why) == Status::kOk,
+             why);
+}
+
+inline SensorFrame sensor_frame(const std::vector<uint16_t>& depth, const PinholeIntrinsics& cam, uint64_t stamp_us) {
+  SensorFrame s;
+  s.depth = ImageView<const uint16_t>(depth.data(), cam.width, cam.height);
+  s.stamp_us = stamp_us;
+  return s;
 }
 
 //! view_centre() scratch for images up to 160x120.

@@ -25,8 +25,8 @@ using namespace pipeline_test;
 
 namespace {
 
-constexpr int kDim = 64;
-constexpr float kVoxel = 0.01f;
+constexpr int kDim = kSpaceDim;
+constexpr float kVoxel = kSpaceVoxelM;
 //! Raycast comparisons count the surface at least a truncation band (4 voxels) inside the space.
 constexpr float kMarginM = 4 * kVoxel;
 
@@ -167,10 +167,7 @@ Frames render_frames(const std::vector<Pose>& poses, const PinholeIntrinsics& ca
 }
 
 SensorFrame frame_of(const Frames& f, std::size_t i, const PinholeIntrinsics& cam) {
-  SensorFrame s;
-  s.depth = ImageView<const uint16_t>(f.depth[i].data(), cam.width, cam.height);
-  s.stamp_us = f.stamps[i];
-  return s;
+  return sensor_frame(f.depth[i], cam, f.stamps[i]);
 }
 
 // The reference camera in slot 0 (another in slot 1), the space in the board's voxel buffers.
@@ -181,12 +178,9 @@ struct MapperRig {
   Mapper mapper;
 
   explicit MapperRig(PoseMode mode, const PushPolicy& push = PushPolicy()) {
-    const CoreBuffers& b = board_buffers();
-    CHECK(volume.init(b.voxels, kDim, Vec3f::Zero(), TsdfParams::defaults_for(kVoxel, 4 * kVoxel)) == Status::kOk);
-    const char* why = "";
-    // No bilateral filter: the rendered depth is exact, so the map can be held to it.
-    CHECK(ref.bind(b, build_board(), 0, cam, DepthSensorKind::kStructuredLight, false, false, &why) == Status::kOk);
-    CHECK(other.bind(b, build_board(), 1, cam, DepthSensorKind::kStructuredLight, false, false, &why) == Status::kOk);
+    init_space(volume, Vec3f::Zero());
+    bind_camera(ref, 0, cam);
+    bind_camera(other, 1, cam);
     MapperParams mp;
     mp.poses = mode;
     mp.tracker.push = push;

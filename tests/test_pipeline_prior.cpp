@@ -26,8 +26,6 @@ using namespace pipeline_test;
 
 namespace {
 
-constexpr int kDim = 64;
-constexpr float kVoxel = 0.01f;
 constexpr float kDeg = 3.14159265f / 180.0f;
 constexpr float kTolM = 0.001f, kTolDeg = 0.1f;
 
@@ -57,11 +55,8 @@ struct PriorRig {
   Mapper mapper;
 
   PriorRig() {
-    const CoreBuffers& b = board_buffers();
-    CHECK(volume.init(b.voxels, kDim, kRigCentre - Vec3f::Constant(0.5f * kDim * kVoxel),
-                      TsdfParams::defaults_for(kVoxel, 4 * kVoxel)) == Status::kOk);
-    const char* why = "";
-    CHECK(ref.bind(b, build_board(), 0, cam, DepthSensorKind::kStructuredLight, false, false, &why) == Status::kOk);
+    init_space(volume, kRigCentre - Vec3f::Constant(0.5f * kSpaceDim * kSpaceVoxelM));
+    bind_camera(ref, 0, cam);
     MapperParams mp;
     mp.poses = PoseMode::kPrior;
     mp.tracker.push.every_frame = true;
@@ -69,13 +64,6 @@ struct PriorRig {
     mapper.new_map_in_place();
   }
 };
-
-SensorFrame frame_of(const std::vector<uint16_t>& depth, const PinholeIntrinsics& cam, uint64_t stamp_us) {
-  SensorFrame s;
-  s.depth = ImageView<const uint16_t>(depth.data(), cam.width, cam.height);
-  s.stamp_us = stamp_us;
-  return s;
-}
 
 }  // namespace
 
@@ -96,7 +84,7 @@ TEST(PipelinePrior, EachStationIsCorrectedFromItsPriorAndPushed) {
     if (i > 0) pose_distance(truth[i - 1], truth[i], step_m, step_deg);
     ReferenceStep step;
     if (i >= 2) alloc_count_start();
-    CHECK(rig.mapper.map_reference(rig.ref, frame_of(depth, rig.cam, 1000 + i), &prior, Pose(), step) == Status::kOk);
+    CHECK(rig.mapper.map_reference(rig.ref, sensor_frame(depth, rig.cam, 1000 + i), &prior, Pose(), step) == Status::kOk);
     if (i >= 2) allocations += alloc_count();
     pose_distance(step.T_world_cam, truth[i], dt, deg);
     std::printf("\n  station %zu (%.1f deg from the last): %s, prior off %.2f mm %.3f deg -> %.3f mm %.4f deg", i,
@@ -124,12 +112,12 @@ TEST(PipelinePrior, APriorFarOffIsLostAndNotPushed) {
   std::vector<uint16_t> depth;
   render(scene, rig.cam, truth[0], depth);
   ReferenceStep step;
-  CHECK(rig.mapper.map_reference(rig.ref, frame_of(depth, rig.cam, 1000), &truth[0], Pose(), step) == Status::kOk);
+  CHECK(rig.mapper.map_reference(rig.ref, sensor_frame(depth, rig.cam, 1000), &truth[0], Pose(), step) == Status::kOk);
   render(scene, rig.cam, truth[1], depth);
   Pose prior = truth[1];
   prior.t += Vec3f(0.2f, 0.0f, 0.0f);
   prior.R = prior.R * Eigen::AngleAxisf(20.0f * kDeg, Vec3f(0.0f, 1.0f, 0.0f)).toRotationMatrix();
-  CHECK(rig.mapper.map_reference(rig.ref, frame_of(depth, rig.cam, 1001), &prior, Pose(), step) == Status::kOk);
+  CHECK(rig.mapper.map_reference(rig.ref, sensor_frame(depth, rig.cam, 1001), &prior, Pose(), step) == Status::kOk);
   std::printf("\n  prior 20 cm / 20 deg off: %s (inliers %.2f, %d correspondences)", to_string(step.track.state),
               step.track.icp.inlier_ratio(), step.track.icp.correspondences);
   CHECK(step.track.state == TrackState::kLost);
@@ -147,11 +135,11 @@ TEST(PipelinePrior, AlignReferenceCorrectsAPriorAgainstTheFinishedMapWithoutMapp
   std::vector<std::vector<uint16_t>> depth(truth.size());
   for (std::size_t i = 0; i < truth.size(); ++i) render(scene, rig.cam, truth[i], depth[i]);
   TrackResult aligned;
-  CHECK(rig.mapper.align_reference(rig.ref, frame_of(depth[0], rig.cam, 1000), truth[0], aligned) ==
+  CHECK(rig.mapper.align_reference(rig.ref, sensor_frame(depth[0], rig.cam, 1000), truth[0], aligned) ==
         Status::kNotInitialised);
   ReferenceStep step;
   for (std::size_t i = 0; i < truth.size(); ++i)
-    CHECK(rig.mapper.map_reference(rig.ref, frame_of(depth[i], rig.cam, 1000 + i), &truth[i], Pose(), step) ==
+    CHECK(rig.mapper.map_reference(rig.ref, sensor_frame(depth[i], rig.cam, 1000 + i), &truth[i], Pose(), step) ==
           Status::kOk);
   const std::size_t n = rig.volume.voxel_count();
   const std::vector<int16_t> tsdf(rig.volume.tsdf(), rig.volume.tsdf() + n);
@@ -161,7 +149,7 @@ TEST(PipelinePrior, AlignReferenceCorrectsAPriorAgainstTheFinishedMapWithoutMapp
   // The first station again, from a disturbed prior: now the map holds every station's view.
   const Pose prior = disturbed(truth[0], 3);
   alloc_count_start();
-  CHECK(rig.mapper.align_reference(rig.ref, frame_of(depth[0], rig.cam, 2000), prior, aligned) == Status::kOk);
+  CHECK(rig.mapper.align_reference(rig.ref, sensor_frame(depth[0], rig.cam, 2000), prior, aligned) == Status::kOk);
   LONGS_EQUAL(0, alloc_count());
   float dt0, deg0, dt, deg;
   pose_distance(prior, truth[0], dt0, deg0);

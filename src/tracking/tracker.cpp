@@ -49,6 +49,25 @@ void Tracker::push_first(TrackResult& result) {
   state_ = TrackState::kOk;
 }
 
+// A frame tracked ok or degraded becomes the current pose; it is pushed when the camera has moved
+// enough since the last push.
+void Tracker::accept(TrackResult& result) {
+  pose_ = result.T_world_cam;
+  last_good_degraded_ = result.state != TrackState::kOk;
+  result.push = !pushed_any_ || moved_enough_to_push(params_.push, last_push_, pose_);
+  if (result.push) {
+    last_push_ = pose_;
+    pushed_any_ = true;
+  }
+}
+
+void Tracker::finish_frame(TrackState state) {
+  const bool ok = state == TrackState::kOk;
+  last_was_ok_ = ok;
+  frames_since_ok_ = ok ? 0 : frames_since_ok_ + 1;
+  state_ = state;
+}
+
 template <class Real>
 Status Tracker::track(const FramePyramid<Real>& frame, const RaycastMaps& model, const PinholeIntrinsics& intr,
                       const IcpWorkspace<Real>& ws, TrackResult& result, const RowRunner* runner) {
@@ -108,17 +127,9 @@ Status Tracker::track(const FramePyramid<Real>& frame, const RaycastMaps& model,
     } else if (!ok) {
       has_velocity_ = false;
     }
-    pose_ = result.T_world_cam;
-    last_good_degraded_ = !ok;
-    result.push = !pushed_any_ || moved_enough_to_push(params_.push, last_push_, pose_);
-    if (result.push) {
-      last_push_ = pose_;
-      pushed_any_ = true;
-    }
+    accept(result);
   }
-  last_was_ok_ = ok;
-  frames_since_ok_ = ok ? 0 : frames_since_ok_ + 1;
-  state_ = result.state;
+  finish_frame(result.state);
   return Status::kOk;
 }
 
@@ -157,20 +168,11 @@ Status Tracker::track_prior(const Pose& prior, const FramePyramid<Real>& frame, 
   }
   const Status s = align_prior(prior, frame, model, intr, ws, result, runner);
   if (s != Status::kOk) return s;
-  const bool ok = result.state == TrackState::kOk;
   has_velocity_ = false;  // the prior replaces the constant-velocity prediction
   if (result.state != TrackState::kLost) {  // a lost frame is not pushed
-    pose_ = result.T_world_cam;
-    last_good_degraded_ = !ok;
-    result.push = !pushed_any_ || moved_enough_to_push(params_.push, last_push_, pose_);
-    if (result.push) {
-      last_push_ = pose_;
-      pushed_any_ = true;
-    }
+    accept(result);
   }
-  last_was_ok_ = ok;
-  frames_since_ok_ = ok ? 0 : frames_since_ok_ + 1;
-  state_ = result.state;
+  finish_frame(result.state);
   return Status::kOk;
 }
 

@@ -105,6 +105,8 @@ class Tracker {
 
  private:
   void push_first(TrackResult& result);
+  void accept(TrackResult& result);
+  void finish_frame(TrackState state);
 
   TrackerParams params_;
   Pose pose_;              // last good pose
