@@ -177,6 +177,21 @@ TEST(HalSim, FreeRunningTriggerAtItsPeriod) {
   CHECK(in.wait_edge(e, 5) == HalStatus::kTimeout);
 }
 
+TEST(HalSim, FreeRunningTriggerKeepsOnlyTheLastEdgesForALateReader) {
+  SimTriggerInput in(10000, clock);
+  CHECK(in.start(EdgeSelect::kRising, 0) == HalStatus::kOk);
+  const uint64_t t0 = clock.now_us();
+  TriggerEdge e;
+  CHECK(in.wait_edge(e, 50) == HalStatus::kOk);
+  CHECK_EQUAL(0u, e.sequence);
+  clock.sleep_us(1000000);  // the reader is 100 periods late: edges 2..101 have passed
+  CHECK(in.wait_edge(e, 50) == HalStatus::kOk);
+  const uint32_t queued = SimTriggerInput::kQueuedEdges;
+  CHECK_EQUAL(t0 + uint64_t(101 - queued + 1) * 10000u, e.stamp_us);  // the oldest edge still queued
+  CHECK_EQUAL(101u - queued, e.sequence);  // the jump shows the lost edges
+  CHECK_EQUAL(101u - queued - 1u, in.lost());
+}
+
 TEST(HalSim, NullBackendsReportNoDevice) {
   NullDepthCamera cam;
   CHECK(cam.start(0) == HalStatus::kNoDevice);

@@ -61,9 +61,14 @@ class SimTriggerInput final : public TriggerInput {
   void stop() override { started_ = false; }
   HalStatus wait_edge(TriggerEdge& edge, uint32_t timeout_ms) override;
   uint32_t debounced() const { return debounced_; }
+  //! Free-running edges lost while the reader was late (beyond kQueuedEdges waiting).
+  uint32_t lost() const { return lost_; }
+  //! Edges a free-running line keeps for a late reader (a GPIO's kernel event buffer).
+  static constexpr uint32_t kQueuedEdges = 16;
 
  private:
   bool accept(const TriggerEdge& e) const;
+  void skip_lost_edges(uint64_t now_us);
 
   SimTriggerLine* line_ = nullptr;
   Clock& clock_;
@@ -76,6 +81,7 @@ class SimTriggerInput final : public TriggerInput {
   bool have_last_ = false;
   uint32_t sequence_ = 0;
   uint32_t debounced_ = 0;
+  uint32_t lost_ = 0;
 };
 
 }  // namespace edgefuse::hal
