@@ -115,6 +115,53 @@ TEST(HalReplay, RigSensorsPairFrameByFrame) {
   CHECK_EQUAL(20, pairs);
 }
 
+// The rig's cameras start on their own threads, some milliseconds apart: on one shared time base
+// their stamps still keep the recorded offsets (the same frame, the same stamp), a camera starting
+// late (or reopened) begins with the frame due now, and once all have stopped the next start begins
+// the recording afresh.
+TEST(HalReplay, RigSensorsStartedApartShareOneTimeBase) {
+  const std::string dir = edgefuse_test::require_data("bin_rig_a");
+  if (dir.empty()) return;
+  io::DepthSequence xs, ts;
+  std::string err;
+  CHECK_TEXT(io::open_depth_sequence(dir, "xtion", xs, err), err.c_str());
+  CHECK_TEXT(io::open_depth_sequence(dir, "tof", ts, err), err.c_str());
+  ManualClock clock;
+  ReplayEpoch epoch;
+  ReplayDepthCamera xc(xs, ReplayRate::kRecorded, clock, true), tc(ts, ReplayRate::kRecorded, clock, true);
+  xc.share_epoch(epoch);
+  tc.share_epoch(epoch);
+  static DepthFrameStorage<320 * 240> xstore, tstore;
+  DepthFrame xf = xstore.frame(), tf = tstore.frame();
+  const uint64_t t0 = clock.now_us();
+  CHECK(xc.start(0) == HalStatus::kOk);
+  CHECK(xc.next_frame(xf, 100) == HalStatus::kOk);
+  CHECK_EQUAL(t0, xf.stamp_us);
+  clock.sleep_us(41000);  // the tof's thread starts 41 ms later: frame 0 is the one due now
+  CHECK(tc.start(0) == HalStatus::kOk);
+  CHECK(tc.next_frame(tf, 300) == HalStatus::kOk);
+  CHECK_EQUAL(0u, tf.sequence);
+  CHECK_EQUAL(t0, tf.stamp_us);
+  clock.sleep_us(400000);  // 441 ms: frame 2 (400 ms) is due, frame 1 is lost as on a live camera
+  tc.stop();
+  CHECK(tc.start(0) == HalStatus::kOk);
+  CHECK(tc.next_frame(tf, 300) == HalStatus::kOk);
+  CHECK_EQUAL(2u, tf.sequence);
+  CHECK_EQUAL(t0 + 400000u, tf.stamp_us);
+  CHECK(xc.next_frame(xf, 300) == HalStatus::kOk);
+  CHECK(xc.next_frame(xf, 300) == HalStatus::kOk);
+  CHECK_EQUAL(xf.sequence, tf.sequence);  // the same frame, the same stamp
+  CHECK_EQUAL(xf.stamp_us, tf.stamp_us);
+  xc.stop();
+  tc.stop();
+  clock.sleep_us(5000000);
+  const uint64_t t1 = clock.now_us();
+  CHECK(tc.start(0) == HalStatus::kOk);
+  CHECK(tc.next_frame(tf, 100) == HalStatus::kOk);
+  CHECK_EQUAL(0u, tf.sequence);
+  CHECK_EQUAL(t1, tf.stamp_us);
+}
+
 TEST(HalReplay, LineScannerAxisPositionsFromTheRecordedPoses) {
   const std::string dir = edgefuse_test::require_data("bin_rig_a");
   if (dir.empty()) return;

@@ -28,6 +28,7 @@ namespace edgefuse::hal {
 struct HalDevices::Owned {
   std::vector<std::unique_ptr<DepthCamera>> cameras;
   std::vector<std::unique_ptr<io::DepthSequence>> sequences;
+  ReplayEpoch replay_epoch;  // the replayed devices play one recording on one time base
   std::unique_ptr<SimDeviceMonitor> sim_monitor;
   std::unique_ptr<DeviceMonitor> usb_monitor;
   std::unique_ptr<TriggerInput> trigger;
@@ -109,6 +110,7 @@ bool HalDevices::make_replay_camera(const io::BoardCamera& c, const std::string&
     return false;
   }
   ReplayDepthCamera* rc = new ReplayDepthCamera(*seq, ReplayRate::kRecorded, clock, loop, speed);
+  rc->share_epoch(owned_->replay_epoch);
   cam.reset(rc);
   if (rc->has_truth()) truth = rc;
   owned_->sequences.push_back(std::move(seq));
@@ -221,7 +223,9 @@ bool HalDevices::add_replay_scanner(const io::BoardScanner& sc, const std::strin
     err = where + ": replay: " + err;
     return false;
   }
-  owned_->scanner.reset(new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock, replay_speed));
+  ReplayLineScanner* replay = new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock, replay_speed);
+  replay->share_epoch(owned_->replay_epoch);
+  owned_->scanner.reset(replay);
   // The axis as the replay reports positions: from the first to the last recorded pose.
   std::size_t first = scan->has_pose.size(), last = 0;
   for (std::size_t p = 0; p < scan->has_pose.size(); ++p)

@@ -25,6 +25,11 @@ bool ReplayDepthCamera::mode(int index, DepthMode& m) const {
   return true;
 }
 
+void ReplayDepthCamera::share_epoch(ReplayEpoch& epoch) {
+  epoch_ = &epoch;
+  if (!seq_.frames.empty()) epoch.include(seq_.frames.front().stamp_s, seq_.frames.back().stamp_s);
+}
+
 HalStatus ReplayDepthCamera::start(int mode_index) {
   if (mode_index != 0) return HalStatus::kInvalidArgument;
   if (seq_.frames.empty()) return HalStatus::kNoDevice;
@@ -32,12 +37,44 @@ HalStatus ReplayDepthCamera::start(int mode_index) {
   depth_.reserve(n);  // decode buffers: allocated here, reused by every frame
   amplitude_.reserve(n);
   colour_.reserve(n);
+  const uint64_t now = clock_.now_us();
+  // One nominal frame period after the last frame, the recording starts again.
+  const double first = epoch_ ? epoch_->first_stamp_s() : seq_.frames.front().stamp_s;
+  const double last = epoch_ ? epoch_->last_stamp_s() : seq_.frames.back().stamp_s;
+  const double own_span = seq_.frames.back().stamp_s - seq_.frames.front().stamp_s;
+  const double period = seq_.frames.size() > 1 ? own_span / double(seq_.frames.size() - 1) : 0.033;
+  first_s_ = first;
+  period_s_ = period;
+  loop_s_ = (last - first) + period;
+  start_us_ = epoch_ ? epoch_->join(now) : now;
   running_ = true;
-  index_ = 0;
-  sequence_ = 0;
-  loop_offset_us_ = 0;
-  start_us_ = clock_.now_us();
+  seek(now);
   return HalStatus::kOk;
+}
+
+void ReplayDepthCamera::stop() {
+  if (running_ && epoch_) epoch_->leave();
+  running_ = false;
+}
+
+// Starts at the recording's present point: its first frame when the time base starts now, else
+// (joining other devices' running replay) the frame due now, loops counted.
+void ReplayDepthCamera::seek(uint64_t now_us) {
+  index_ = 0;
+  loop_offset_us_ = 0;
+  sequence_ = 0;
+  if (now_us <= start_us_) return;
+  double played_s = double(now_us - start_us_) * 1e-6 * speed_;
+  uint64_t loops = 0;
+  if (loop_ && loop_s_ > 0) {
+    loops = uint64_t(played_s / loop_s_);
+    played_s -= double(loops) * loop_s_;
+  }
+  // A frame less than a period overdue is the one a live camera would be delivering now.
+  const double t = first_s_ + played_s - period_s_;
+  while (index_ < seq_.frames.size() && seq_.frames[index_].stamp_s < t) ++index_;
+  loop_offset_us_ = uint64_t(std::llround(double(loops) * loop_s_ / speed_ * 1e6));
+  sequence_ = uint32_t(loops * seq_.frames.size() + index_);
 }
 
 HalStatus ReplayDepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms) {
@@ -45,14 +82,11 @@ HalStatus ReplayDepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms) 
   if (!frame.fits(seq_.intr.width, seq_.intr.height)) return HalStatus::kInvalidArgument;
   if (index_ >= seq_.frames.size()) {
     if (!loop_) return HalStatus::kEndOfStream;
-    // One nominal frame period after the last frame, the recording starts again.
-    const double span = seq_.frames.back().stamp_s - seq_.frames.front().stamp_s;
-    const double period = seq_.frames.size() > 1 ? span / double(seq_.frames.size() - 1) : 0.033;
-    loop_offset_us_ += uint64_t(std::llround((span + period) / speed_ * 1e6));
+    loop_offset_us_ += uint64_t(std::llround(loop_s_ / speed_ * 1e6));
     index_ = 0;
   }
   const io::FrameRef& ref = seq_.frames[index_];
-  const double offset_s = ref.stamp_s - seq_.frames.front().stamp_s;
+  const double offset_s = ref.stamp_s - first_s_;
   const uint64_t stamp_us = start_us_ + loop_offset_us_ + uint64_t(std::llround(offset_s / speed_ * 1e6));
   if (rate_ == ReplayRate::kRecorded) {
     const uint64_t now = clock_.now_us();

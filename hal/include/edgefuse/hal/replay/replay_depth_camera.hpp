@@ -12,6 +12,7 @@
 
 #include "edgefuse/hal/clock.hpp"
 #include "edgefuse/hal/depth_camera.hpp"
+#include "edgefuse/hal/replay/replay_epoch.hpp"
 #include "edgefuse/hal/truth_source.hpp"
 #include "edgefuse/io/dataset.hpp"
 
@@ -28,11 +29,15 @@ class ReplayDepthCamera final : public DepthCamera, public TruthSource {
   ReplayDepthCamera(const io::DepthSequence& seq, ReplayRate rate, Clock& clock, bool loop = false,
                     double speed = 1.0);
 
+  //! Plays on a time base shared with the recording's other replayed devices (before start()).
+  //! \param epoch the shared time base (outlives this camera)
+  void share_epoch(ReplayEpoch& epoch);
+
   const char* name() const override { return seq_.sensor_name.c_str(); }
   int mode_count() const override { return 1; }
   bool mode(int index, DepthMode& mode) const override;
   HalStatus start(int mode_index) override;
-  void stop() override { running_ = false; }
+  void stop() override;
   PinholeIntrinsics intrinsics() const override { return seq_.intr; }
   HalStatus next_frame(DepthFrame& frame, uint32_t timeout_ms) override;
 
@@ -73,6 +78,8 @@ class ReplayDepthCamera final : public DepthCamera, public TruthSource {
   std::size_t last_index() const { return index_ == 0 ? 0 : index_ - 1; }
 
  private:
+  void seek(uint64_t now_us);
+
   const io::DepthSequence& seq_;
   ReplayRate rate_;
   Clock& clock_;
@@ -82,7 +89,11 @@ class ReplayDepthCamera final : public DepthCamera, public TruthSource {
   bool delivered_ = false;  // a frame was delivered (last_index() names it)
   std::size_t index_ = 0;
   uint32_t sequence_ = 0;
-  uint64_t start_us_ = 0;
+  ReplayEpoch* epoch_ = nullptr;
+  uint64_t start_us_ = 0;        // the time base's start (the clock's time at recording time first_s_)
+  double first_s_ = 0;           // recording time played at start_us_
+  double period_s_ = 0;          // the recording's frame period
+  double loop_s_ = 0;            // recording time from one loop's start to the next's
   uint64_t loop_offset_us_ = 0;
   std::vector<uint16_t> depth_, amplitude_;
   std::vector<Rgb8> colour_;
