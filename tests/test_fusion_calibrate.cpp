@@ -43,14 +43,15 @@ BBuffers<float>& b_buffers<float>() { return g_b; }
 template <>
 BBuffers<Fixed>& b_buffers<Fixed>() { return g_b_q; }
 
-PinholeIntrinsics camera_b() {  // a ToF-like camera: 160 x 120, wide, non-square pixels
+// A ToF-like camera: 160 x 120, wide, non-square pixels; `binning` pixels to one (the same view).
+PinholeIntrinsics camera_b(int binning = 1) {
   PinholeIntrinsics c;
-  c.width = kBW;
-  c.height = kBH;
-  c.fx = 160.0f;
-  c.fy = 170.0f;
-  c.cx = 79.5f;
-  c.cy = 59.5f;
+  c.width = kBW / binning;
+  c.height = kBH / binning;
+  c.fx = 160.0f / float(binning);
+  c.fy = 170.0f / float(binning);
+  c.cx = 0.5f * float(c.width) - 0.5f;
+  c.cy = 0.5f * float(c.height) - 0.5f;
   c.depth_scale = 10000.0f;
   c.min_range_m = 0.1f;
   c.max_range_m = 3.0f;
@@ -69,8 +70,15 @@ struct Outcome {
   Status status;
 };
 
+// B's view: all of it, or a window of it (w x h pixels with its top-left corner at x0, y0; the rest
+// sees nothing), as a sensor whose field of view holds little of the map.
+struct View {
+  int x0 = 0, y0 = 0, w = kBW, h = kBH;
+  int binning = 1;  //!< camera_b's binning
+};
+
 template <class Real = float>
-Outcome run_pair(const Scene& scene, const Pose& guess) {
+Outcome run_pair(const Scene& scene, const Pose& guess, const View& view = View()) {
   RigBuffers<Real>& g_rig = rig_buffers<Real>();
   BBuffers<Real>& g_b = b_buffers<Real>();
   Rig<Real> rig(g_rig, kRigCentre, 0.01f);
@@ -83,18 +91,23 @@ Outcome run_pair(const Scene& scene, const Pose& guess) {
     integrate<Real>(rig.volume, rig.cam, rig.norms, DepthFrame{ImageView<const uint16_t>(g_rig.frame, kRigW, kRigH), {}},
                      poses[i], rig.scratch);
   }
-  const PinholeIntrinsics cb = camera_b();
+  const PinholeIntrinsics cb = camera_b(view.binning);
+  const int bw = cb.width, bh = cb.height;
   const Pose T_world_a = poses.back();
   render(scene, cb, T_world_a * mounting(), depth);
   add_depth_noise(depth, cb.depth_scale, 0.004f, 99u);
-  for (std::size_t k = 0; k < depth.size(); ++k) g_b.frame[k] = depth[k];
+  for (std::size_t k = 0; k < depth.size(); ++k) {
+    const int x = int(k) % bw, y = int(k) / bw;
+    const bool seen = x >= view.x0 && x < view.x0 + view.w && y >= view.y0 && y < view.y0 + view.h;
+    g_b.frame[k] = seen ? depth[k] : 0;
+  }
   FramePyramid<Real> pyr;
   bind_pyramid<Real>(cb, g_b.pv, g_b.pn, BBuffers<Real>::kPyr, pyr);
-  build_pyramid<Real>(ImageView<const uint16_t>(g_b.frame, kBW, kBH), PyramidParams(), pyr);
+  build_pyramid<Real>(ImageView<const uint16_t>(g_b.frame, bw, bh), PyramidParams(), pyr);
   RaycastMaps maps;
-  maps.depth_m = ImageView<float>(g_b.depth_m, kBW, kBH);
-  maps.vertex = ImageView<Vec3f>(g_b.vertex, kBW, kBH);
-  maps.normal = ImageView<Vec3f>(g_b.normal, kBW, kBH);
+  maps.depth_m = ImageView<float>(g_b.depth_m, bw, bh);
+  maps.vertex = ImageView<Vec3f>(g_b.vertex, bw, bh);
+  maps.normal = ImageView<Vec3f>(g_b.normal, bw, bh);
   const IcpWorkspace<Real> ws = IcpWorkspace<Real>::bind(g_b.rows, sizeof(g_b.rows));
   Outcome o;
   o.status = calibrate_pair<Real>(rig.volume, T_world_a, guess, cb, pyr, maps, ws, PairCalibrationParams(), o.r);
@@ -122,6 +135,45 @@ TEST(PairCalibration, RecoversKnownMounting) {
   CHECK(dt < 0.002f);
   CHECK(deg < 0.2f);
   CHECK(o.r.sigma.tail<3>().norm() > 0.0f);
+}
+
+// A sensor that sees little of the map (B binned to 40 x 30: 400-odd correspondences, fewer than a
+// fixed count of 500 would ask for) is accepted on its evidence: the 1-sigma of the fit, and a count
+// scaled to its pixels. A window of B that sees only part of the corner is still refused: what it
+// sees does not determine the mounting (1-sigma of several mm), and the reason says so.
+TEST(PairCalibration, AcceptsAFewPixelsOnTheirEvidence) {
+  Pose guess = mounting();
+  guess.t += Vec3f(-0.01f, 0.005f, 0.005f);
+  View binned;
+  binned.binning = 4;
+  const Outcome o = run_pair(box_sphere_corner(), guess, binned);
+  CHECK(o.status == Status::kOk);
+  float dt, deg;
+  pose_error(o.r.T_a_b, mounting(), dt, deg);
+  std::printf("\n  40 x 30: %s, %d correspondences, %.2f mm %.3f deg off, sigma %.2f mm %.3f deg %s\n",
+              o.r.accepted ? "accepted" : "refused", o.r.correspondences, 1e3f * dt, deg,
+              1e3f * o.r.sigma.tail<3>().maxCoeff(), o.r.sigma.head<3>().maxCoeff() * 57.2957795f, o.r.reason);
+  CHECK(o.r.correspondences < 500);
+  CHECK_TEXT(o.r.accepted, o.r.reason);
+  // As the full view's bounds (2 mm / 0.2 deg), widened by the 4x larger pixels' noise.
+  CHECK(dt < 0.002f);
+  CHECK(deg < 0.6f);
+
+  View window;
+  window.x0 = 50;
+  window.y0 = 40;
+  window.w = 30;
+  window.h = 22;
+  const Outcome w = run_pair(box_sphere_corner(), guess, window);
+  CHECK(w.status == Status::kOk);
+  std::printf("  a 30 x 22 window: %s\n", w.r.reason);
+  CHECK(!w.r.accepted);
+  CHECK(std::strstr(w.r.reason, "too uncertain") != nullptr);
+
+  PairCalibrationParams p;
+  LONGS_EQUAL(500, p.required_correspondences(320 * 240));
+  LONGS_EQUAL(125, p.required_correspondences(160 * 120));
+  LONGS_EQUAL(60, p.required_correspondences(40 * 30));
 }
 
 // A single plane fixes only distance and two tilts: refused, and the message says why.

@@ -28,7 +28,7 @@ namespace edgefuse::hal {
 struct HalDevices::Owned {
   std::vector<std::unique_ptr<DepthCamera>> cameras;
   std::vector<std::unique_ptr<io::DepthSequence>> sequences;
-  ReplayEpoch replay_epoch;  // the replayed devices play one recording on one time base
+  ReplayEpoch replay_epoch;  // the replayed cameras play one recording on one time base
   std::unique_ptr<SimDeviceMonitor> sim_monitor;
   std::unique_ptr<DeviceMonitor> usb_monitor;
   std::unique_ptr<TriggerInput> trigger;
@@ -223,9 +223,9 @@ bool HalDevices::add_replay_scanner(const io::BoardScanner& sc, const std::strin
     err = where + ": replay: " + err;
     return false;
   }
-  ReplayLineScanner* replay = new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock, replay_speed);
-  replay->share_epoch(owned_->replay_epoch);
-  owned_->scanner.reset(replay);
+  // The scanner's sweep keeps its own time base: a rig set records it after the cameras' frames
+  // (bin_rig_a: 1 s after), and played as recorded it would arrive when the cameras have ended.
+  owned_->scanner.reset(new ReplayLineScanner(*scan, ReplayRate::kRecorded, clock, replay_speed));
   // The axis as the replay reports positions: from the first to the last recorded pose.
   std::size_t first = scan->has_pose.size(), last = 0;
   for (std::size_t p = 0; p < scan->has_pose.size(); ++p)

@@ -29,28 +29,10 @@ HalStatus ReplayLineScanner::start() {
     has_axis_ = d.norm() > 1e-6f;
     if (has_axis_) axis_ = d.normalized();
   }
-  const uint64_t now = clock_.now_us();
-  const std::size_t n = scan_.profiles.size();
-  first_s_ = epoch_ ? epoch_->first_stamp_s() : scan_.profiles.stamps_s[0];
-  start_us_ = epoch_ ? epoch_->join(now) : now;
   running_ = true;
-  // Joining other devices' running replay: the profile due now (less than a period overdue).
-  const double period_s = n > 1 ? (scan_.profiles.stamps_s[n - 1] - scan_.profiles.stamps_s[0]) / double(n - 1) : 0;
-  const double t = first_s_ + double(now - start_us_) * 1e-6 * speed_ - period_s;
   index_ = 0;
-  while (index_ < n && scan_.profiles.stamps_s[index_] < t) ++index_;
+  start_us_ = clock_.now_us();
   return HalStatus::kOk;
-}
-
-void ReplayLineScanner::share_epoch(ReplayEpoch& epoch) {
-  epoch_ = &epoch;
-  const std::size_t n = scan_.profiles.size();
-  if (n > 0) epoch.include(scan_.profiles.stamps_s[0], scan_.profiles.stamps_s[n - 1]);
-}
-
-void ReplayLineScanner::stop() {
-  if (running_ && epoch_) epoch_->leave();
-  running_ = false;
 }
 
 HalStatus ReplayLineScanner::next_profile(LineProfile& profile, uint32_t timeout_ms) {
@@ -58,7 +40,7 @@ HalStatus ReplayLineScanner::next_profile(LineProfile& profile, uint32_t timeout
   const int beams = scan_.profiles.beams;
   if (profile.ranges_m == nullptr || profile.capacity_beams < beams) return HalStatus::kInvalidArgument;
   if (index_ >= scan_.profiles.size()) return HalStatus::kEndOfStream;
-  const double offset_s = scan_.profiles.stamps_s[index_] - first_s_;
+  const double offset_s = scan_.profiles.stamps_s[index_] - scan_.profiles.stamps_s[0];
   const uint64_t stamp_us = start_us_ + uint64_t(std::llround(offset_s / speed_ * 1e6));
   if (rate_ == ReplayRate::kRecorded) {
     const uint64_t now = clock_.now_us();

@@ -57,12 +57,18 @@ void final_system(const FramePyramid<Real>& frame, const RaycastMaps& model, con
 
 bool PairCalibrationParams::valid() const {
   if (stages < 1 || stages > kMaxStages || rounds_per_stage < 1 || !(max_rms_m > 0) || !(min_inlier_ratio >= 0) ||
-      min_inlier_ratio > 1 || min_correspondences < 6 || !(min_eigen_ratio > 0) || min_eigen_ratio >= 1 ||
+      min_inlier_ratio > 1 || min_correspondences < 6 || !(min_pixel_fraction >= 0) || min_pixel_fraction > 1 ||
+      !(max_sigma_m > 0) || !(max_sigma_deg > 0) || !(min_eigen_ratio > 0) || min_eigen_ratio >= 1 ||
       observability_tiles < 1)
     return false;
   for (int i = 0; i < stages; ++i)
     if (!(max_distance_m[i] > 0) || !(max_normal_deg[i] > 0) || max_normal_deg[i] > 90) return false;
   return true;
+}
+
+int PairCalibrationParams::required_correspondences(int pixels) const {
+  const int scaled = int(std::ceil(double(min_pixel_fraction) * double(pixels)));
+  return scaled > min_correspondences ? scaled : min_correspondences;
 }
 
 template <class Real>
@@ -75,6 +81,7 @@ Status calibrate_pair(const TsdfVolume& volume, const Pose& T_world_a, const Pos
   if (!params.valid() || maps_b.vertex.empty() || maps_b.normal.empty()) return Status::kInvalidArgument;
   Pose T = T_a_b_guess;
   IcpStats stats;
+  const int required = params.required_correspondences(intr_b.width * intr_b.height);
   for (int stage = 0; stage < params.stages; ++stage) {
     IcpParams icp;
     icp.max_distance_m = params.max_distance_m[stage];
@@ -82,7 +89,7 @@ Status calibrate_pair(const TsdfVolume& volume, const Pose& T_world_a, const Pos
     icp.robust_scale_m = params.max_distance_m[stage] * 0.5f;
     icp.min_eigen_ratio = params.min_eigen_ratio;
     icp.observability_tiles = params.observability_tiles;
-    icp.min_correspondences = params.min_correspondences / 4 > 6 ? params.min_correspondences / 4 : 6;
+    icp.min_correspondences = required / 4 > 6 ? required / 4 : 6;
     for (int round = 0; round < params.rounds_per_stage; ++round) {
       Status s = raycast<Real>(volume, intr_b, T_world_a * T, maps_b);
       if (s != Status::kOk) return s;
@@ -137,9 +144,9 @@ Status calibrate_pair(const TsdfVolume& volume, const Pose& T_world_a, const Pos
                   stats.correspondences, stats.observable);
     return Status::kOk;
   }
-  if (n < params.min_correspondences) {
-    std::snprintf(out.reason, sizeof(out.reason), "too little overlap: %d correspondences (< %d)", n,
-                  params.min_correspondences);
+  if (n < required) {
+    std::snprintf(out.reason, sizeof(out.reason), "too little overlap: %d correspondences (< %d for %dx%d)", n,
+                  required, intr_b.width, intr_b.height);
     return Status::kOk;
   }
   if (out.rms_m > params.max_rms_m) {
@@ -155,6 +162,14 @@ Status calibrate_pair(const TsdfVolume& volume, const Pose& T_world_a, const Pos
   const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(A);
   const Eigen::Matrix<double, 6, 6> cov = (rr / double(n - 6)) * ldlt.solve(Eigen::Matrix<double, 6, 6>::Identity());
   for (int i = 0; i < 6; ++i) out.sigma(i) = float(std::sqrt(cov(i, i) > 0 ? cov(i, i) : 0.0));
+  const float sigma_rot_deg = out.sigma.head<3>().maxCoeff() * 57.2957795f;
+  const float sigma_trans_m = out.sigma.tail<3>().maxCoeff();
+  if (sigma_trans_m > params.max_sigma_m || sigma_rot_deg > params.max_sigma_deg) {
+    std::snprintf(out.reason, sizeof(out.reason),
+                  "too uncertain: 1-sigma %.2f mm / %.3f deg (> %.2f mm / %.3f deg)", 1e3f * sigma_trans_m,
+                  sigma_rot_deg, 1e3f * params.max_sigma_m, params.max_sigma_deg);
+    return Status::kOk;
+  }
   out.accepted = true;
   return Status::kOk;
 }

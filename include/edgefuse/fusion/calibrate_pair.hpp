@@ -11,8 +11,10 @@
 // Acceptance (all must hold, otherwise `accepted` is false and `reason` says what is missing):
 //   - the model seen from B constrains all six directions (observability.hpp on the final raycast;
 //     a single plane constrains three: "scene is a single plane"), and the ICP solved in all six;
-//   - enough correspondences, point-to-plane RMS below max_rms_m, inlier ratio above
-//     min_inlier_ratio.
+//   - enough correspondences for B's resolution (a fraction of its pixels, and a floor), point-to-
+//     plane RMS below max_rms_m, inlier ratio above min_inlier_ratio;
+//   - the evidence: the 1-sigma of every direction (below) within max_sigma_m / max_sigma_deg. A
+//     sensor that sees little of the map is accepted when what it sees determines the mounting.
 // Uncertainty: cov(xi) = s^2 A^-1 with A = sum J^T J over the final inliers and s^2 = sum r^2 /
 // (n - 6), xi = (omega, v) in B's frame; sigma = sqrt(diag). Neighbouring pixels' residuals are
 // correlated (the TSDF smooths over a few voxels, the sensor noise is per pixel), so this is a
@@ -37,11 +39,18 @@ struct PairCalibrationParams {
   int rounds_per_stage = 3;      //!< raycast + ICP rounds per stage
   float max_rms_m = 0.006f;      //!< accept: point-to-plane RMS of the inliers (ToF noise ~ 4-7 mm)
   float min_inlier_ratio = 0.6f; //!< accept: inliers / candidates
-  int min_correspondences = 500; //!< accept: inliers at full resolution
+  int min_correspondences = 60;  //!< accept: inliers at full resolution, at least (ten per unknown)
+  //! accept: inliers at full resolution, at least this fraction of B's pixels (500 at 320x240, 125 at
+  //! 160x120)
+  float min_pixel_fraction = 0.0065f;
+  float max_sigma_m = 0.003f;    //!< accept: 1-sigma of each translation component
+  float max_sigma_deg = 0.3f;    //!< accept: 1-sigma of each rotation component
   float min_eigen_ratio = 1e-4f; //!< observability threshold (as IcpParams::min_eigen_ratio)
   int observability_tiles = 10;  //!< tiles across the width for the observability system
 
   bool valid() const;
+  //! The inliers a fit of a `pixels`-pixel image needs. \param pixels B's width x height
+  int required_correspondences(int pixels) const;
 };
 
 struct PairCalibrationResult {

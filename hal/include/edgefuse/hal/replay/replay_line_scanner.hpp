@@ -15,13 +15,10 @@ class ReplayLineScanner final : public LineScanner {
   //! \param scan the opened recording (kept by reference)  \param rate pacing  \param clock time base
   //! \param speed kRecorded: playback speed (0.5: half the recorded rate)
   ReplayLineScanner(const io::LineScan& scan, ReplayRate rate, Clock& clock, double speed = 1.0);
-  //! Plays on a time base shared with the recording's other replayed devices (before start()).
-  //! \param epoch the shared time base (outlives this scanner)
-  void share_epoch(ReplayEpoch& epoch);
   const char* name() const override { return scan_.sensor.name.c_str(); }
   LineScannerInfo info() const override;
   HalStatus start() override;
-  void stop() override;
+  void stop() override { running_ = false; }
   HalStatus next_profile(LineProfile& profile, uint32_t timeout_ms) override;
 
  private:
@@ -31,9 +28,7 @@ class ReplayLineScanner final : public LineScanner {
   double speed_;
   bool running_ = false;
   std::size_t index_ = 0;
-  ReplayEpoch* epoch_ = nullptr;
-  uint64_t start_us_ = 0;  // the time base's start (the clock's time at recording time first_s_)
-  double first_s_ = 0;     // recording time played at start_us_
+  uint64_t start_us_ = 0;
   Vec3f origin_ = Vec3f::Zero(), axis_ = Vec3f::Zero();
   bool has_axis_ = false;
 };
