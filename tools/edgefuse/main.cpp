@@ -28,6 +28,8 @@ const Command kCommands[] = {
     {"localize", edgefuse::cli::cmd_localize, "object poses (--model FILE.ply ...) or model-free segments (--segments)"},
     // HAL
     {"acquire", edgefuse::cli::cmd_acquire, "run the board's cameras through the acquisition runtime, print status"},
+    // pictures
+    {"render", edgefuse::cli::cmd_render, "draw a fused cloud and the localised objects into a PNG"},
 };
 
 void usage(std::FILE* out) {
