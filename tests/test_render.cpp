@@ -55,6 +55,7 @@ TEST(Render, ObjectInFrontIsDrawnBehindIsHidden) {
   RenderOptions o;
   o.width_px = 200;
   o.tilt_deg = 0;
+  o.point_px = 2;
   RenderImage img;
   std::string err;
   CHECK_TRUE_TEXT(cli::render_scene(cloud, objects, o, img, err), err.c_str());

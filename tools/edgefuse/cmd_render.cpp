@@ -25,7 +25,8 @@ const char* kUsage =
     "  turned by --tilt degrees (default 30) about the image's x axis, and each object of a pose list\n"
     "  (`edgefuse localize --out`: id tx ty tz qx qy qz qw score model) as its model mesh DIR/<model>\n"
     "  (or DIR/<model>.ply) at its pose, one colour per object in list order. --width: image width in\n"
-    "  pixels (default 800; the height follows the scene). --point-px: size of a cloud point (default 2).\n"
+    "  pixels (default 800; the height follows the scene). --point-px: size of a cloud point (default:\n"
+    "  1.5 x the points' mean spacing over the image, at most 8).\n"
     "  --out: default render.png. Prints one line per object with its colour.\n";
 
 bool is_file(const std::string& p) {

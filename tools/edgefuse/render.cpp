@@ -43,7 +43,7 @@ View make_view(const io::PointCloud& cloud, const RenderOptions& o, int& height_
     a = Vec3f::UnitZ();
   v.right = (a - a.dot(v.forward) * v.forward).normalized();
   v.down = v.forward.cross(v.right);
-  const Mat3f tilt = Eigen::AngleAxisf(o.tilt_deg * kDegToRad, v.right).toRotationMatrix();
+  const Mat3f tilt = Eigen::AngleAxisf(-o.tilt_deg * kDegToRad, v.right).toRotationMatrix();
   v.forward = tilt * v.forward;
   v.down = tilt * v.down;
 
@@ -125,6 +125,10 @@ bool render_scene(const io::PointCloud& cloud, const std::vector<RenderObject>& 
   out.px.assign(std::size_t(out.width) * std::size_t(out.height), kRenderBackground);
   Canvas cv{out, std::vector<float>(out.px.size(), std::numeric_limits<float>::max())};
 
+  // Auto point size: squares 1.5 times the mean spacing the points would have over the whole image.
+  const int point_px = o.point_px > 0 ? o.point_px
+                                      : std::max(1, std::min(8, int(std::ceil(1.5 * std::sqrt(double(out.px.size()) /
+                                                                                                double(valid))))));
   const bool has_colour = cloud.colours.size() == cloud.points.size();
   const bool has_normals = cloud.normals.size() == cloud.points.size();
   for (std::size_t i = 0; i < cloud.points.size(); ++i) {
@@ -137,9 +141,9 @@ bool render_scene(const io::PointCloud& cloud, const std::vector<RenderObject>& 
       c = Rgb8{g, g, g};
     }
     const Vec3f s = to_screen(v, cloud.points[i]);
-    const int x0 = int(std::floor(s.x())) - o.point_px / 2, y0 = int(std::floor(s.y())) - o.point_px / 2;
-    for (int dy = 0; dy < o.point_px; ++dy)
-      for (int dx = 0; dx < o.point_px; ++dx) cv.put(x0 + dx, y0 + dy, s.z(), c);
+    const int x0 = int(std::floor(s.x())) - point_px / 2, y0 = int(std::floor(s.y())) - point_px / 2;
+    for (int dy = 0; dy < point_px; ++dy)
+      for (int dx = 0; dx < point_px; ++dx) cv.put(x0 + dx, y0 + dy, s.z(), c);
   }
 
   for (std::size_t k = 0; k < objects.size(); ++k) {

@@ -21,7 +21,7 @@ struct RenderObject {
 
 struct RenderOptions {
   int width_px = 800;   //!< image width; the height follows the scene's extent (at most 2x the width)
-  int point_px = 2;     //!< edge of the square drawn for each cloud point
+  int point_px = 0;     //!< edge of the square drawn for each cloud point (0: from the image area per point)
   float tilt_deg = 30;  //!< the view turned by this about the image's x axis away from the cloud's mean normal
   float margin = 0.04f; //!< blank border, as a share of the width
 };
