@@ -36,11 +36,10 @@ View make_view(const io::PointCloud& cloud, const RenderOptions& o, int& height_
   const Vec3f n = mean_normal(cloud);
   v.forward = n.norm() > 1e-6f ? Vec3f(-n.normalized()) : Vec3f(0, 0, 1);
   // Image x: the world axis least aligned with the view, made perpendicular to it.
-  Vec3f a = Vec3f::UnitX();
-  if (std::fabs(v.forward.y()) < std::fabs(v.forward(0)) && std::fabs(v.forward.y()) <= std::fabs(v.forward.z()))
-    a = Vec3f::UnitY();
-  else if (std::fabs(v.forward.z()) < std::fabs(v.forward(0)) && std::fabs(v.forward.z()) < std::fabs(v.forward.y()))
-    a = Vec3f::UnitZ();
+  int least = 0;
+  for (int k = 1; k < 3; ++k)
+    if (std::fabs(v.forward(k)) < std::fabs(v.forward(least))) least = k;
+  const Vec3f a = Vec3f::Unit(least);
   v.right = (a - a.dot(v.forward) * v.forward).normalized();
   v.down = v.forward.cross(v.right);
   const Mat3f tilt = Eigen::AngleAxisf(-o.tilt_deg * kDegToRad, v.right).toRotationMatrix();
