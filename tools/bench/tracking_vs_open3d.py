@@ -64,7 +64,7 @@ DATASETS = {
 }
 # Per-data-set `edgefuse track` arguments (replace with --dataset-args KEY="ARGS"): the board's
 # default voxel (host-sim: 2 mm, a 0.512 m cube for the bin) is too small a volume for the room-sized
-# TUM and 7-Scenes scenes; 1 cm x 256 = 2.56 m, as the TSDF benchmark and the README's TUM example.
+# TUM and 7-Scenes scenes; 1 cm x 256 = 2.56 m, as the TSDF benchmark and the guide's TUM example.
 TRACK_ARGS = {"tum": ["--voxel", "0.01"], "kitchen": ["--voxel", "0.01"], "xtion": [], "tof": []}
 TARGET_FPS = 30.0
 MAX_DT = 0.02

@@ -230,6 +230,7 @@ int acquire(const AcquireOptions& o, AcquireRun& run) {
 }  // namespace
 
 int cmd_acquire(int argc, char** argv) {
+  if (help_asked(argc, argv, kUsage)) return 0;
   AcquireOptions o;
   Failure f;
   AcquireRun run;

@@ -323,6 +323,7 @@ bool write_result(const CalibrateOptions& o, const SensorPair& p, const PairCali
 }  // namespace
 
 int cmd_calibrate(int argc, char** argv) {
+  if (help_asked(argc, argv, kUsage)) return 0;
   CalibrateOptions o;
   Failure f;
   SensorPair p;

@@ -95,6 +95,13 @@ int run_rpe(const std::vector<io::StampedPose>& est, const std::vector<io::Stamp
 }  // namespace
 
 int cmd_eval(int argc, char** argv) {
+  if (argc >= 1 && (!std::strcmp(argv[0], "--help") || !std::strcmp(argv[0], "-h"))) {
+    std::printf("%s%s", kUsage,
+                "usage: edgefuse eval poses EST.txt TRUE.txt [--models DIR]\n"
+                "       edgefuse eval segments PRED.pcd TRUTH.pcd [--parts]\n"
+                "  (edgefuse eval poses --help, edgefuse eval segments --help: what they compute)\n");
+    return 0;
+  }
   // localisation: object poses and segments
   if (argc >= 1 && !std::strcmp(argv[0], "poses")) return cmd_eval_poses(argc - 1, argv + 1);
   if (argc >= 1 && !std::strcmp(argv[0], "segments")) return cmd_eval_segments(argc - 1, argv + 1);

@@ -199,6 +199,7 @@ int cmd_fuse(int argc, char** argv) {
   // Several sensors of a rig set into one space: its own option set.
   for (int i = 0; i < argc; ++i)
     if (std::string(argv[i]) == "--sensors") return cmd_fuse_rig(argc, argv);
+  if (help_asked(argc, argv, kUsage)) return 0;
   FuseOptions o;
   Failure f;
   FuseRun run;

@@ -308,6 +308,7 @@ bool write_outputs(const FuseRigOptions& o, RigCore& rc, double fuse_ms, Failure
 }  // namespace
 
 int cmd_fuse_rig(int argc, char** argv) {
+  if (help_asked(argc, argv, kUsage)) return 0;
   FuseRigOptions o;
   Failure f;
   RigCore rc;

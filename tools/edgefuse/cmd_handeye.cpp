@@ -251,11 +251,7 @@ bool report_result(const HandEyeOptions& o, const HandEyeRun& run, const HandEye
 }  // namespace
 
 int cmd_handeye(int argc, char** argv) {
-  for (int i = 0; i < argc; ++i)
-    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
-      std::printf("%s", kUsage);
-      return 0;
-    }
+  if (help_asked(argc, argv, kUsage)) return 0;
   HandEyeOptions o;
   Failure f;
   HandEyeRun run;

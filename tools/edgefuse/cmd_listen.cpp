@@ -233,6 +233,7 @@ void print_summary(const Counts& c) {
 }  // namespace
 
 int cmd_listen(int argc, char** argv) {
+  if (help_asked(argc, argv, kUsage)) return 0;
   ListenOptions o;
   Failure f;
   Source src;

@@ -492,6 +492,7 @@ bool localize_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Failure
 }  // namespace
 
 int cmd_localize(int argc, char** argv) {
+  if (help_asked(argc, argv, kUsage)) return 0;
   LocalizeOptions o;
   Failure f;
   if (!parse_options(argc, argv, o, f)) return report("edgefuse localize", f);

@@ -3,17 +3,22 @@
 #include <string>
 
 #include "args.hpp"
+#include "failure.hpp"
 #include "commands.hpp"
 #include "edgefuse/memory/arena.hpp"
 
 namespace edgefuse::cli {
 
 int cmd_memmap(int argc, char** argv) {
+  const char* usage =
+      "usage: edgefuse memmap [--board NAME]\n"
+      "  Prints the board's static memory map: every large buffer, its size and offset in the arena,\n"
+      "  and the total against the board's RAM budget (default: the build's board).\n";
+  if (help_asked(argc, argv, usage)) return 0;
   Args args;
   std::string err;
   if (!args.parse(argc, argv, {"board"}, {}, err) || !args.positional().empty()) {
-    std::fprintf(stderr, "edgefuse memmap: %s\nusage: edgefuse memmap [--board NAME]\n",
-                 err.empty() ? "unexpected argument" : err.c_str());
+    std::fprintf(stderr, "edgefuse memmap: %s\n%s", err.empty() ? "unexpected argument" : err.c_str(), usage);
     return 2;
   }
   const std::string name = args.get("board", build_board().name);

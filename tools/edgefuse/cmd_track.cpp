@@ -278,6 +278,7 @@ bool write_outputs(const TrackOptions& o, const TrackRun& run, Failure& f) {
 }  // namespace
 
 int cmd_track(int argc, char** argv) {
+  if (help_asked(argc, argv, kUsage)) return 0;
   TrackOptions o;
   Failure f;
   TrackRun run;

@@ -17,5 +17,6 @@ int cmd_listen(int argc, char** argv);
 // localisation
 int cmd_localize(int argc, char** argv);
 int cmd_acquire(int argc, char** argv);  // HAL
+int cmd_render(int argc, char** argv);   //!< a PNG of a fused cloud and the localised objects
 
 }  // namespace edgefuse::cli

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "failure.hpp"
 #include "edgefuse/io/pcd.hpp"
 #include "edgefuse/io/ply.hpp"
 #include "edgefuse/io/rig.hpp"
@@ -24,13 +25,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-struct PoseLine {
-  int id = 0;
-  Pose T;
-  float score = 0;
-  std::string model;
-};
-
 std::string base_name(const std::string& p) {
   const std::size_t s = p.find_last_of('/');
   return s == std::string::npos ? p : p.substr(s + 1);
@@ -39,6 +33,8 @@ std::string dir_name(const std::string& p) {
   const std::size_t s = p.find_last_of('/');
   return s == std::string::npos ? "." : p.substr(0, s);
 }
+
+}  // namespace
 
 bool read_pose_lines(const std::string& path, std::vector<PoseLine>& out, std::string& err) {
   std::ifstream f(path);
@@ -84,8 +80,6 @@ bool read_pose_lines(const std::string& path, std::vector<PoseLine>& out, std::s
   }
   return true;
 }
-
-}  // namespace
 
 bool load_eval_model(const std::string& path, EvalModel& m, std::string& err) {
   io::TriangleMesh mesh;
@@ -221,12 +215,14 @@ int fail(const std::string& msg) {
 }  // namespace
 
 int cmd_eval_poses(int argc, char** argv) {
+  const char* usage =
+      "usage: edgefuse eval poses EST.txt TRUE.txt [--models DIR]\n"
+      "  TRUE.txt: objects.txt of a rig set (models from its rig.toml) or lines `id t q [score] model`\n";
+  if (help_asked(argc, argv, usage)) return 0;
   Args args;
   std::string err;
   if (!args.parse(argc, argv, {"models"}, {}, err) || args.positional().size() != 2) {
-    std::fprintf(stderr, "edgefuse eval poses: %s\nusage: edgefuse eval poses EST.txt TRUE.txt [--models DIR]\n"
-                 "  TRUE.txt: objects.txt of a rig set (models from its rig.toml) or lines `id t q [score] model`\n",
-                 err.empty() ? "expected EST and TRUE" : err.c_str());
+    std::fprintf(stderr, "edgefuse eval poses: %s\n%s", err.empty() ? "expected EST and TRUE" : err.c_str(), usage);
     return 2;
   }
   const std::string est_path = args.positional()[0], true_path = args.positional()[1];
@@ -312,11 +308,14 @@ int cmd_eval_segments(int argc, char** argv) {
   // --parts: every labelled part is an object of its own (mOSD labels the geometrically disjoint parts
   // of an occluded object 10k, 10k+1, ...: its README says a model-free method cannot be expected to
   // join them); default: parts merged into their object (label / 10), the stricter reading.
+  const char* usage =
+      "usage: edgefuse eval segments PRED.pcd TRUTH.pcd [--parts]\n"
+      "  PRED: labels per point (0 = none); TRUTH: mOSD labels (0 invalid, 1-9 support, 10k..10k+9 object k)\n"
+      "  --parts: score each disjoint part (10k+i) as an object of its own instead of the whole object k\n";
+  if (help_asked(argc, argv, usage)) return 0;
   const bool parts = argc == 3 && !std::strcmp(argv[2], "--parts");
   if (argc != 2 && !parts) {
-    std::fprintf(stderr, "usage: edgefuse eval segments PRED.pcd TRUTH.pcd [--parts]\n"
-                 "  PRED: labels per point (0 = none); TRUTH: mOSD labels (0 invalid, 1-9 support, 10k..10k+9 object k)\n"
-                 "  --parts: score each disjoint part (10k+i) as an object of its own instead of the whole object k\n");
+    std::fputs(usage, stderr);
     return 2;
   }
   io::PointCloud pred, truth;

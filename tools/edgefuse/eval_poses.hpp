@@ -12,6 +12,16 @@ namespace edgefuse::cli {
 int cmd_eval_poses(int argc, char** argv);
 int cmd_eval_segments(int argc, char** argv);
 
+//! One line of a pose list (`edgefuse localize --out`, a rig set's objects.txt).
+struct PoseLine {
+  int id = 0;
+  Pose T;  //!< T_world_object
+  float score = 0;
+  std::string model;  //!< empty when the line has none
+};
+//! Reads `id tx ty tz qx qy qz qw [score] [model]` lines (# comments); an error names file and line.
+bool read_pose_lines(const std::string& path, std::vector<PoseLine>& out, std::string& err);
+
 //! A model for evaluation: even surface samples (~1000), diameter, symmetries found by testing
 //! rotations about the bounding-box axes through its centre.
 struct EvalModel {

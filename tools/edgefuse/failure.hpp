@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdio>
+#include <cstring>
 #include <string>
 
 namespace edgefuse::cli {
@@ -28,6 +29,17 @@ inline bool fail(Failure& f, const std::string& message, int code = 1) {
 inline int report(const char* program, const Failure& f, const char* usage = "") {
   std::fprintf(stderr, "%s: %s\n%s", program, f.message.c_str(), f.usage ? usage : "");
   return f.code;
+}
+
+//! `--help` / `-h` anywhere on the command line: prints the usage to stdout.
+//! \return true when the command should exit 0 now
+inline bool help_asked(int argc, char** argv, const char* usage) {
+  for (int i = 0; i < argc; ++i)
+    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) {
+      std::fputs(usage, stdout);
+      return true;
+    }
+  return false;
 }
 
 }  // namespace edgefuse::cli

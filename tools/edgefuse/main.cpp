@@ -18,7 +18,7 @@ const Command kCommands[] = {
     {"fuse", edgefuse::cli::cmd_fuse, "integrate a data set at its ground-truth poses, write the cloud / mesh"},
     {"memmap", edgefuse::cli::cmd_memmap, "print a board's static memory map"},
     {"track", edgefuse::cli::cmd_track, "track the sensor by ICP against the fused model, fuse, write the trajectory"},
-    {"eval", edgefuse::cli::cmd_eval, "trajectory accuracy: ATE (aligned) / RPE against ground truth, as TUM's tools"},
+    {"eval", edgefuse::cli::cmd_eval, "accuracy against ground truth: trajectories (ate, rpe as TUM's tools), object poses, segments"},
     // multi-sensor fusion
     {"calibrate", edgefuse::cli::cmd_calibrate, "find the mounting T_A_B of two rigidly mounted sensors from the data"},
     {"handeye", edgefuse::cli::cmd_handeye, "find the camera's mounting on a robot flange from robot poses and the data"},
@@ -28,6 +28,8 @@ const Command kCommands[] = {
     {"localize", edgefuse::cli::cmd_localize, "object poses (--model FILE.ply ...) or model-free segments (--segments)"},
     // HAL
     {"acquire", edgefuse::cli::cmd_acquire, "run the board's cameras through the acquisition runtime, print status"},
+    // pictures
+    {"render", edgefuse::cli::cmd_render, "draw a fused cloud and the localised objects into a PNG"},
 };
 
 void usage(std::FILE* out) {

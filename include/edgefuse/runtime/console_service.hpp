@@ -8,7 +8,7 @@
 
 namespace edgefuse::runtime {
 
-//! Error codes of console replies (`ERR <code> <message>`); stable, documented in README.
+//! Error codes of console replies (`ERR <code> <message>`); stable, documented in docs/GUIDE.md.
 enum class ConsoleError : int {
   kOk = 0,
   kUnknownCommand = 1,
