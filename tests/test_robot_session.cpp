@@ -252,6 +252,10 @@ TEST(RobotSession, DetectFailuresAreAnswered) {
   const Reply& idle = c.ask(c.req(Command::kDetect));  // no capture: the map is empty
   CHECK(idle.status == ReplyStatus::kFailed);
   STRCMP_CONTAINS("empty", idle.message);
+  const Reply& idle_async = c.ask(c.req(Command::kDetectAsync));
+  CHECK(idle_async.status == ReplyStatus::kFailed);
+  STRCMP_CONTAINS("empty", idle_async.message);
+  CHECK(c.ask(c.req(Command::kDetectStatus)).status == ReplyStatus::kFailed);
   c.pipeline.fail_next = true;
   c.capture_and_detect();
   CHECK(c.out.last().status == ReplyStatus::kFailed);

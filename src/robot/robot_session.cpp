@@ -122,7 +122,10 @@ void RobotSession::detect(int client, const Request& r, uint64_t now_us) {
     detect_since_us_ = now_us;
     have_outcome_ = false;
   }
-  if (!detect_started_ && !start_detect(now_us)) return;  // failed: every waiting client was told
+  if (!detect_started_ && !start_detect(now_us)) {  // failed: every waiting detect was told
+    if (r.command == Command::kDetectAsync) fail(client, r, ReplyStatus::kFailed, detect_failure_);
+    return;
+  }
   if (r.command == Command::kDetectAsync) {
     begin(r).status = ReplyStatus::kOk;
     send(client);
@@ -148,6 +151,7 @@ bool RobotSession::start_detect(uint64_t now_us) {
   have_outcome_ = true;
   last_status_ = ReplyStatus::kFailed;
   last_count_ = 0;
+  detect_failure_ = c.message;
   for (int i = 0; i < pending_count_; ++i) answer_detect(pending_[i], c.message);
   pending_count_ = 0;
   return false;

@@ -105,6 +105,7 @@ class RobotSession final : public runtime::ResultListener {
   bool have_outcome_ = false;    // a detect finished: last_status_ / last_count_ hold its outcome
   ReplyStatus last_status_ = ReplyStatus::kNoObjects;
   uint32_t last_count_ = 0;
+  const char* detect_failure_ = "";  // why the last detect could not start (the runtime's static text)
   // Hand-eye.
   Pose station_flange_[kHandEyeStationsMax];
   Pose station_camera_[kHandEyeStationsMax];
