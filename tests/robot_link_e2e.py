@@ -11,6 +11,7 @@ usage: robot_link_e2e.py [--emulator CMD] [--time-factor F] EDGEFUSED LISTEN_PY 
 """
 import importlib.util
 import os
+import select
 import shutil
 import signal
 import socket
@@ -21,7 +22,7 @@ import time
 import zlib
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import emulation, popen  # noqa: E402
+from edgefused_helpers import emulation, open_raw, popen  # noqa: E402
 
 EMU, SLOW = emulation(sys.argv)
 EDGEFUSED, LISTEN_PY, WORK = sys.argv[1:4]
@@ -94,15 +95,12 @@ def frame(payload):
     return cobs_encode(payload + struct.pack("<I", zlib.crc32(payload) & 0xFFFFFFFF)) + b"\0"
 
 
-def replies(sock, listen, pb2, want, timeout):
-    """Protobuf replies from the link's stream (results and heartbeats skipped) until `want` arrived."""
+def replies(read, listen, pb2, want, timeout):
+    """Protobuf replies from the link's stream (results and heartbeats skipped) until `want` arrived;
+    read() returns the bytes that came in a short wait (b"" for none)."""
     got, buf, end = [], b"", time.monotonic() + timeout
-    sock.settimeout(0.2)
     while len(got) < want and time.monotonic() < end:
-        try:
-            buf += sock.recv(65536)
-        except socket.timeout:
-            continue
+        buf += read()
         while b"\0" in buf:
             block, _, buf = buf.partition(b"\0")
             data = listen.cobs_decode(block) if block else None
@@ -118,7 +116,7 @@ def replies(sock, listen, pb2, want, timeout):
 shutil.rmtree(WORK, ignore_errors=True)
 os.makedirs(WORK, exist_ok=True)
 log = open(os.path.join(WORK, "edgefused.log"), "w+")
-d = popen([*EMU, EDGEFUSED, "--set", "link.tcp_port=0", "--set", "robot.text_port=0", "--set", "link.serial=",
+d = popen([*EMU, EDGEFUSED, "--set", "link.tcp_port=0", "--set", "robot.text_port=0", "--set", "link.serial=pty",
            "--set", "console.serial=", "--set", "link.heartbeat_ms=100",
            "--set", "calib.dir=" + os.path.join(WORK, "calib")], stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
 info = {}
@@ -190,7 +188,7 @@ check_object(a.ask("NEXT"), 0, mm=True, wxyz=True)
 # --- malformed lines: each answered with ERR, the connection and the state kept ----------------
 bad = [("CAPTURE 1 2", "ERR 4 BAD_REQUEST"), ("JUMP", "ERR 5 UNKNOWN_COMMAND"), ("PICKED MAYBE", "ERR 4"),
        ("UNITS inch", "ERR 4"), ("X" * 300, "ERR 4 BAD_REQUEST line longer"), ("\x01\x02\x7f", "ERR 5"),
-       ("HANDEYE SOLVE", "ERR 3 NOT_CALIBRATED"), ("HANDEYE ADD 0 0 0 1 0 0 0", "ERR 6 FAILED no camera pose")]
+       ("HANDEYE SOLVE", "ERR 3 NOT_CALIBRATED 0 stations"), ("HANDEYE ADD 0 0 0 1 0 0 0", "ERR 6 FAILED no camera pose")]
 for line, want in bad:
     r = a.ask(line)
     check(r.startswith(want), "%r -> %s" % (line[:20], r))
@@ -217,7 +215,17 @@ msg.request.id = 43
 msg.request.command = 77  # unknown to this board
 stream += frame(msg.SerializeToString())
 p.sendall(stream)
-got = replies(p, listen, pb2, 4, 10 * SLOW)
+p.settimeout(0.2)
+
+
+def read_tcp():
+    try:
+        return p.recv(65536)
+    except socket.timeout:
+        return b""
+
+
+got = replies(read_tcp, listen, pb2, 4, 10 * SLOW)
 check([g.id for g in got] == [41, 42, 0, 43], "protobuf replies carry the request ids: %s" % [g.id for g in got])
 if len(got) == 4:
     check(got[0].status == pb2.REPLY_OK and got[0].state == pb2.STATE_MAPPING, "STATUS reply")
@@ -225,6 +233,24 @@ if len(got) == 4:
           "NEXT reply: object 2, 1 left (object 1 was offered over the text port)")
     check(got[2].status == pb2.REPLY_BAD_REQUEST and "CRC" in got[2].message, "garbled frame -> REPLY_BAD_REQUEST")
     check(got[3].status == pb2.REPLY_UNKNOWN_COMMAND, "unknown command -> REPLY_UNKNOWN_COMMAND")
+
+# --- a protobuf request on the link's serial line (a pseudo-terminal here) ------------------------
+serial = open_raw(info["link"])
+msg = pb2.Message()
+msg.request.id = 51
+msg.request.command = pb2.COMMAND_DETECT_STATUS
+os.write(serial, frame(msg.SerializeToString()))
+
+
+def read_serial():
+    r, _, _ = select.select([serial], [], [], 0.2)
+    return os.read(serial, 4096) if r else b""
+
+
+got = replies(read_serial, listen, pb2, 1, 10 * SLOW)
+check(len(got) == 1 and got[0].id == 51 and got[0].status == pb2.REPLY_OK and got[0].count == 3,
+      "DETECT_STATUS on the serial line -> REPLY_OK, 3 objects")
+os.close(serial)
 
 # The stalled clients still hold their connections; the pipeline went on (heartbeats every 100 ms).
 check(a.ask("STOP") == "OK", "STOP -> OK")
@@ -236,8 +262,8 @@ robot_line = [l for l in out.splitlines() if l.startswith("robot: ") and "reques
 print(robot_line[0] if robot_line else out[-2000:])
 if robot_line:
     w = robot_line[0].replace("(", " ").replace(",", " ").split()
-    pose_updates, bad_count, unknown = int(w[3]), int(w[6]), int(w[8])
-    check(pose_updates >= 500, "%d pose updates accepted" % pose_updates)
+    pose_updates, bad_count, unknown, refused = int(w[3]), int(w[6]), int(w[8]), int(w[10])
+    check(pose_updates >= 500 and refused == 0, "%d pose updates accepted, %d refused" % (pose_updates, refused))
     check(bad_count >= 5 and unknown >= 3, "bad requests counted (%d) and unknown commands (%d)" % (bad_count, unknown))
 check(d.returncode == 0, "SIGTERM stops edgefused cleanly")
 stalled.close()

@@ -170,6 +170,34 @@ TEST(RobotProtobuf, RepliesEncodeAndDecode) {
   STRCMP_EQUAL("fine", m.body.reply.message);
 }
 
+TEST(RobotProtobuf, NoHeapWhileDecodingRequestsAndEncodingReplies) {
+  robot::Request r;
+  r.id = 3;
+  r.command = Command::kPose;
+  r.has_pose = true;
+  std::vector<uint8_t> f = frame_of(r);
+  std::vector<uint8_t> garbled = f;
+  garbled[1] ^= 0x01;
+  static RequestStreams streams;
+  static ReplyWriter w;
+  class Count : public RequestHandler {
+   public:
+    int n = 0;
+    void request(int, const robot::Request&) override { ++n; }
+  } count;
+  robot::Reply reply;
+  reply.has_object = reply.has_hand_eye = true;
+  edgefuse_test::alloc_count_start();
+  size_t len = 0;
+  for (int k = 0; k < 100; ++k) {
+    streams.feed(1, f.data(), f.size(), count);
+    streams.feed(1, garbled.data(), garbled.size(), count);
+    CHECK(w.encode(reply, len) != nullptr);
+  }
+  LONGS_EQUAL(0, edgefuse_test::alloc_count());
+  LONGS_EQUAL(200, count.n);
+}
+
 TEST_GROUP(RobotText){};
 
 TEST(RobotText, PosesWithSpacesCommasUnitsAndRotations) {
@@ -283,6 +311,11 @@ TEST(RobotText, ReplyLines) {
   mm.rotation = TextRotation::kWxyz;
   STRCMP_CONTAINS("OBJECT 2 475.000 20.000 45.000 1.0000000 0.0000000 0.0000000 0.0000000 0.8800",
                   reply_line(r, mm).c_str());
+  char pose[160];
+  TextFormat kuka;
+  kuka.rotation = TextRotation::kKukaAbc;
+  format_text_pose(Pose::from_tq(0, 0, 0, 0.7071068f, 0, 0, 0.7071068f), kuka, pose, sizeof pose);
+  STRCMP_EQUAL("0.000000 0.000000 0.000000 0.0000 0.0000 90.0000", pose);  // no "-0.0000"
   r = robot::Reply();
   r.command = Command::kStatus;
   r.state = runtime::RuntimeState::kMapping;

@@ -319,6 +319,14 @@ TEST(RobotSession, StreamedPosesGoToTheStampedHistoryWithoutReplies) {
   late.stamp_us = 5000000;
   c.session.handle(0, late, c.now);
   LONGS_EQUAL(1, c.session.counters().poses_refused);
+  // Poses without a stamp that arrive together are stamped in their order, none refused.
+  c.now = 9000000;
+  for (int i = 0; i < 3; ++i) c.session.handle(0, c.posed(Command::kPose, Pose()), c.now);
+  LONGS_EQUAL(1, c.session.counters().poses_refused);
+  Pose newest;
+  uint64_t newest_us = 0;
+  CHECK(h.newest(newest, newest_us));
+  CHECK(newest_us == c.now + 2);
 }
 
 TEST(RobotSession, HandEyeStationsSolveSaveAndCalibrationGet) {

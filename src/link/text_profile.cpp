@@ -194,27 +194,39 @@ void parse_text_line(const char* line, size_t len, const TextFormat& fmt, TextLi
   out.request.command = Command::kUnknown;
 }
 
+namespace {
+
+// Values that print as zero print as "0", never "-0" (a robot program may compare text).
+double printed(float v, double half_last_digit) { return std::fabs(double(v)) < half_last_digit ? 0.0 : double(v); }
+
+}  // namespace
+
 size_t format_text_pose(const Pose& p, const TextFormat& fmt, char* out, size_t cap) {
   const bool mm = fmt.units == TextUnits::kMillimetres;
   const Vec3f t = p.t * (mm ? 1000.0f : 1.0f);
-  int n = std::snprintf(out, cap, mm ? "%.3f %.3f %.3f" : "%.6f %.6f %.6f", double(t.x()), double(t.y()), double(t.z()));
+  const double h = mm ? 5e-4 : 5e-7;
+  int n = std::snprintf(out, cap, mm ? "%.3f %.3f %.3f" : "%.6f %.6f %.6f", printed(t.x(), h), printed(t.y(), h),
+                        printed(t.z(), h));
   if (n < 0 || size_t(n) >= cap) return 0;
   const Eigen::Quaternionf q = p.quaternion();
   int m = 0;
   if (fmt.rotation == TextRotation::kXyzw) {
-    m = std::snprintf(out + n, cap - n, " %.7f %.7f %.7f %.7f", double(q.x()), double(q.y()), double(q.z()), double(q.w()));
+    m = std::snprintf(out + n, cap - n, " %.7f %.7f %.7f %.7f", printed(q.x(), 5e-8), printed(q.y(), 5e-8),
+                      printed(q.z(), 5e-8), printed(q.w(), 5e-8));
   } else if (fmt.rotation == TextRotation::kWxyz) {
-    m = std::snprintf(out + n, cap - n, " %.7f %.7f %.7f %.7f", double(q.w()), double(q.x()), double(q.y()), double(q.z()));
+    m = std::snprintf(out + n, cap - n, " %.7f %.7f %.7f %.7f", printed(q.w(), 5e-8), printed(q.x(), 5e-8),
+                      printed(q.y(), 5e-8), printed(q.z(), 5e-8));
   } else if (fmt.rotation == TextRotation::kAxisAngle) {
     const Eigen::AngleAxisf aa(q);
     const Vec3f r = aa.axis() * aa.angle();
-    m = std::snprintf(out + n, cap - n, " %.7f %.7f %.7f", double(r.x()), double(r.y()), double(r.z()));
+    m = std::snprintf(out + n, cap - n, " %.7f %.7f %.7f", printed(r.x(), 5e-8), printed(r.y(), 5e-8),
+                      printed(r.z(), 5e-8));
   } else {
     const Mat3f& R = p.R;
     const float b = std::atan2(-R(2, 0), std::sqrt(R(0, 0) * R(0, 0) + R(1, 0) * R(1, 0)));
     const float a = std::atan2(R(1, 0), R(0, 0)), c = std::atan2(R(2, 1), R(2, 2));
-    m = std::snprintf(out + n, cap - n, " %.4f %.4f %.4f", double(a * kDegPerRad), double(b * kDegPerRad),
-                      double(c * kDegPerRad));
+    m = std::snprintf(out + n, cap - n, " %.4f %.4f %.4f", printed(a * kDegPerRad, 5e-5), printed(b * kDegPerRad, 5e-5),
+                      printed(c * kDegPerRad, 5e-5));
   }
   if (m < 0 || size_t(n + m) >= cap) return 0;
   return size_t(n + m);

@@ -36,9 +36,15 @@ void RobotSession::fail(int client, const Request& r, ReplyStatus s, const char*
   send(client);
 }
 
+// A pose without a stamp is stamped when received; poses that arrive together (a burst in one
+// read) keep their order 1 us apart rather than being refused as not newer.
 void RobotSession::record_pose(const Request& r, uint64_t now_us) {
   if (!r.has_pose) return;
-  if (!poses_.record(r.stamp_us != 0 ? r.stamp_us : now_us, r.T_base_flange)) ++counters_.poses_refused;
+  uint64_t stamp_us = r.stamp_us;
+  Pose newest;
+  uint64_t newest_us = 0;
+  if (stamp_us == 0) stamp_us = poses_.newest(newest, newest_us) && newest_us >= now_us ? newest_us + 1 : now_us;
+  if (!poses_.record(stamp_us, r.T_base_flange)) ++counters_.poses_refused;
 }
 
 // A request that must carry the flange pose and does not: answered kBadRequest.
@@ -268,6 +274,11 @@ void RobotSession::hand_eye_add(int client, const Request& r) {
 
 void RobotSession::hand_eye_solve(int client, const Request& r) {
   hand_eye_ = HandEyeResult();
+  if (station_count_ < 3) {  // the solver says so too, in more words than a reply holds
+    char why[kReplyMessageMax + 1];
+    std::snprintf(why, sizeof(why), "%d stations: at least 3, rotated about 2 axes", station_count_);
+    return fail(client, r, ReplyStatus::kNotCalibrated, why);
+  }
   if (solve_hand_eye(station_flange_, station_camera_, station_count_, HandEyeParams(), hand_eye_) != Status::kOk ||
       !hand_eye_.solved)
     return fail(client, r, ReplyStatus::kNotCalibrated,
