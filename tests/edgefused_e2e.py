@@ -74,7 +74,7 @@ check(ok.returncode == 0 and "--set KEY=VALUE" in ok.stdout, "edgefused --help")
 bad = subprocess.run([*EMU, EDGEFUSED, *SIM, "--board", "nosuch"], capture_output=True, text=True, cwd=WORK)
 check(bad.returncode == 1 and "unknown board 'nosuch'" in bad.stderr, "unknown board refused: " + bad.stderr.strip())
 # Board data: am335x's [tsdf] defaults (4 mm voxels) reach the parameters; --set still wins.
-p = popen([*EMU, EDGEFUSED, *SIM, "--board", "am335x", "--set", "link.tcp=false", "--set", "link.serial=",
+p = popen([*EMU, EDGEFUSED, *SIM, "--board", "am335x", "--set", "link.tcp=false", "--set", "robot.text=false", "--set", "link.serial=",
            "--set", "console.serial=", "--set", "tsdf.trunc_m=0.02"],
           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=WORK)
 first = p.stdout.readline()
@@ -88,7 +88,7 @@ probe.bind(("127.0.0.1", 0))
 udp_port = probe.getsockname()[1]
 probe.close()
 log = open(os.path.join(WORK, "edgefused.log"), "w+")
-d = popen([*EMU, EDGEFUSED, *SIM, "--set", "link.tcp_port=0", "--set", "console.echo=false",
+d = popen([*EMU, EDGEFUSED, *SIM, "--set", "link.tcp_port=0", "--set", "robot.text_port=0", "--set", "console.echo=false",
            "--set", "link.udp_host=127.0.0.1", "--set", "link.udp_port=%d" % udp_port,
            "--set", "link.heartbeat_ms=200", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
           stdout=log, stderr=subprocess.STDOUT, cwd=WORK)

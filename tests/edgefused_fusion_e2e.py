@@ -81,7 +81,7 @@ def finish(text):
 def start(extra, logname):
     """Starts edgefused; returns (process, log file, startup info)."""
     log = open(os.path.join(WORK, logname), "w+")
-    d = popen(EMU + [EDGEFUSED, "--set", "link.tcp_port=0", "--set", "link.serial=", "--set",
+    d = popen(EMU + [EDGEFUSED, "--set", "link.tcp_port=0", "--set", "robot.text_port=0", "--set", "link.serial=", "--set",
                      "console.echo=false", "--set", "calib.dir=" + os.path.join(WORK, "calib")] +
               extra, stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
     info = {}

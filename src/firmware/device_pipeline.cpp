@@ -563,6 +563,21 @@ Pose DevicePipeline::tracking_start_pose(uint32_t sequence) {
   return T;
 }
 
+// T_map_rig = T_map_ref * T_rig_ref^-1 with the reference's mounting from the calibration store
+// (else the sim mounting, else the identity: the rig is the reference camera).
+bool DevicePipeline::rig_pose(Pose& T_map_rig, uint64_t& stamp_us) const {
+  if (!mapping_ || camera_count_ == 0 || !mapper_.reference().has_pose()) return false;
+  const CameraStream& ref = cams_[order_[0]];
+  Pose T_rig_ref = Pose::identity();
+  if (const runtime::SensorPair* p = runtime::calib_find_pair(calib_, "rig", ref.name.c_str()))
+    T_rig_ref = to_pose(p->T_from_to);
+  else if (const hal::TruthSource* truth = sim_truth(ref.index))
+    truth->mounting(T_rig_ref);
+  T_map_rig = mapper_.reference().last() * T_rig_ref.inverse();
+  stamp_us = mapper_.reference().stamp_us();
+  return true;
+}
+
 // Another camera of the map: its frame at the reference's pose of the same instant times its
 // extrinsics, weighted by its noise model.
 void DevicePipeline::process_other(CameraStream& c) {

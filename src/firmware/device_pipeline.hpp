@@ -106,6 +106,7 @@ class DevicePipeline final : public runtime::Pipeline {
   bool calibrate_pair(const char* from, const char* to, runtime::PairCalibrationReport& out,
                       const char** why) override;
   void calibration_changed(const runtime::CalibrationData& d) override;
+  bool rig_pose(Pose& T_map_rig, uint64_t& stamp_us) const override;
   runtime::PipelineStats stats() const override { return stats_; }
   bool map_empty() const override { return mapper_.map_frames() == 0; }
   int device_count() const override { return camera_count_ + (scanner_.name.empty() ? 0 : 1); }

@@ -15,8 +15,12 @@
 #include "edgefuse/hal/platform/config/config_toml.hpp"
 #include "edgefuse/hal/platform/service/event_loop.hpp"
 #include "edgefuse/hal/platform/service/ports.hpp"
+#include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
 #include "edgefuse/link/publisher.hpp"
+#include "edgefuse/link/robot_codec.hpp"
+#include "edgefuse/link/text_profile.hpp"
 #include "edgefuse/memory/arena.hpp"
+#include "edgefuse/robot/robot_session.hpp"
 #include "edgefuse/runtime/console.hpp"
 #include "edgefuse/runtime/runtime.hpp"
 
@@ -45,7 +49,92 @@ DevicePipeline g_devices;
 hal::LinkFanout g_link;
 link::LinkPublisher g_publisher(g_link);
 hal::TcpServer g_tcp;
+hal::TcpServer g_text('\n');  // a reply line cut short for a slow client is ended before the next
 hal::UdpSender g_udp;
+
+// The robot's requests at the link's edge: protobuf frames from the link's TCP clients (clients
+// 0..7) and its serial line (kSerialClient), text lines from the text port's clients
+// (kTextClientBase + slot); each reply goes back to the client that asked.
+class RobotLink final : public robot::ReplySink, public link::RequestHandler {
+ public:
+  static constexpr int kSerialClient = hal::TcpServer::kMaxClients;
+  static constexpr int kTextClientBase = 16;
+  static_assert(link::RequestStreams::kStreams == kSerialClient + 1, "a frame stream per TCP client and the serial line");
+
+  robot::RobotSession* session = nullptr;
+  link::TextFormat default_format;  //!< robot.units / robot.rotation
+
+  void frames(int client, const uint8_t* data, size_t n) { streams_.feed(client, data, n, *this); }
+  void text(int slot, const uint8_t* data, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+      const link::TextLineBuffer::Event e = lines_[slot].push(char(data[i]));
+      if (e == link::TextLineBuffer::Event::kNone) continue;
+      if (e == link::TextLineBuffer::Event::kTooLong) {
+        parsed_ = link::TextLine();
+        parsed_.kind = link::TextLine::Kind::kRequest;
+        parsed_.request.error = "line longer than 255 characters";
+      } else {
+        link::parse_text_line(lines_[slot].line(), lines_[slot].size(), formats_[slot], parsed_);
+      }
+      if (parsed_.kind == link::TextLine::Kind::kRequest) request(kTextClientBase + slot, parsed_.request);
+      if (parsed_.kind == link::TextLine::Kind::kFormat) {
+        formats_[slot] = parsed_.format;
+        g_text.send_to(slot, reinterpret_cast<const uint8_t*>("OK\n"), 3);
+      }
+    }
+  }
+  void frames_closed(int client) {
+    streams_.reset(client);
+    session->client_closed(client);
+  }
+  void text_closed(int slot) {
+    lines_[slot].reset();
+    formats_[slot] = default_format;
+    session->client_closed(kTextClientBase + slot);
+  }
+  void reset_formats() {
+    for (link::TextFormat& f : formats_) f = default_format;
+  }
+  void request(int client, const robot::Request& r) override {
+    session->handle(client, r, hal::monotonic_clock().now_us());
+  }
+  void reply(int client, const robot::Reply& r) override {
+    if (client >= kTextClientBase) {
+      const size_t n = link::format_text_reply(r, formats_[client - kTextClientBase], line_, sizeof(line_));
+      if (n > 0) g_text.send_to(client - kTextClientBase, reinterpret_cast<const uint8_t*>(line_), n);
+      return;
+    }
+    size_t n = 0;
+    const uint8_t* f = writer_.encode(r, n);
+    if (f == nullptr) return;
+    if (client == kSerialClient)
+      g_link.send_serial(f, n);
+    else
+      g_tcp.send_to(client, f, n);
+  }
+
+ private:
+  link::RequestStreams streams_;
+  link::ReplyWriter writer_;
+  link::TextLineBuffer lines_[hal::TcpServer::kMaxClients];
+  link::TextFormat formats_[hal::TcpServer::kMaxClients];
+  link::TextLine parsed_;
+  char line_[link::kTextReplyMax];
+};
+RobotLink g_robot;
+
+class FrameInput final : public hal::TcpInput {
+ public:
+  void received(int client, const uint8_t* data, size_t n) override { g_robot.frames(client, data, n); }
+  void closed(int client) override { g_robot.frames_closed(client); }
+};
+class TextInput final : public hal::TcpInput {
+ public:
+  void received(int client, const uint8_t* data, size_t n) override { g_robot.text(client, data, n); }
+  void closed(int client) override { g_robot.text_closed(client); }
+};
+FrameInput g_frame_input;
+TextInput g_text_input;
 
 // \return -1 to go on, else the exit code (--help: 0, a bad argument: 2)
 int parse_command_line(int argc, char** argv, CommandLine& c) {
@@ -121,6 +210,16 @@ bool check_combinations(std::string& err) {
     err = "tracking.poses = '" + poses + "' is not one of known|tracked";
     return false;
   }
+  if (!link::parse_units(g_params.get_text(runtime::kRobotUnits), g_robot.default_format.units)) {
+    err = std::string("robot.units = '") + g_params.get_text(runtime::kRobotUnits) + "' is not one of m|mm";
+    return false;
+  }
+  if (!link::parse_rotation(g_params.get_text(runtime::kRobotRotation), g_robot.default_format.rotation)) {
+    err = std::string("robot.rotation = '") + g_params.get_text(runtime::kRobotRotation) +
+          "' is not one of xyzw|wxyz|axisangle|kuka_abc";
+    return false;
+  }
+  g_robot.reset_formats();
   return true;
 }
 
@@ -159,6 +258,15 @@ bool open_ports(hal::Port& console, hal::Port& link_port, std::string& err) {
     }
     std::printf("tcp: %s:%d\n", g_params.get_text(runtime::kLinkTcpBind), g_tcp.port());
     g_link.tcp = &g_tcp;
+    g_tcp.set_input(&g_frame_input);
+  }
+  if (g_params.get_bool(runtime::kRobotText)) {
+    if (!g_text.listen(g_params.get_text(runtime::kLinkTcpBind), g_params.get_int(runtime::kRobotTextPort), err)) {
+      err = "robot.text_port: " + err;
+      return false;
+    }
+    std::printf("robot: %s:%d\n", g_params.get_text(runtime::kLinkTcpBind), g_text.port());
+    g_text.set_input(&g_text_input);
   }
   if (g_params.get_text(runtime::kLinkUdpHost)[0] != '\0') {
     if (!g_udp.open(g_params.get_text(runtime::kLinkUdpHost), g_params.get_int(runtime::kLinkUdpPort), err)) {
@@ -208,10 +316,13 @@ class FileCalibStorage final : public runtime::CalibrationStorage {
 // The loop's work: console bytes to the console, ticks to the runtime, state changes to the log.
 class Service final : public hal::ServiceHandler {
  public:
-  Service(runtime::Runtime& rt, runtime::Console& console) : rt_(rt), console_(console) {}
+  Service(runtime::Runtime& rt, runtime::Console& console, robot::RobotSession& session)
+      : rt_(rt), console_(console), session_(session) {}
   void console_input(const char* data, size_t n) override { console_.feed(data, n); }
+  void link_input(const uint8_t* data, size_t n) override { g_robot.frames(RobotLink::kSerialClient, data, n); }
   void tick(uint64_t now_us) override {
     rt_.tick(now_us);
+    session_.tick(now_us);
     if (rt_.state() == last_state_ && rt_.results_sent() == last_results_) return;
     // log.level info (2) and up: state changes; debug (3): every result.
     if (g_params.get_int(runtime::kLogLevel) >= 2 && rt_.state() != last_state_)
@@ -227,6 +338,7 @@ class Service final : public hal::ServiceHandler {
  private:
   runtime::Runtime& rt_;
   runtime::Console& console_;
+  robot::RobotSession& session_;
   runtime::RuntimeState last_state_ = runtime::RuntimeState::kIdle;
   uint32_t last_results_ = 0;
 };
@@ -242,6 +354,9 @@ int serve(runtime::Pipeline& pipeline) {
   static hal::CalibFileStore store(g_params.get_text(runtime::kCalibDir));
   static FileCalibStorage storage(store);
   static runtime::Runtime rt(pipeline, g_params, storage, g_publisher);
+  static robot::RobotSession session(rt, pipeline, g_robot);
+  rt.set_result_listener(&session);
+  g_robot.session = &session;
   {
     // Calibration: the newest valid slot, a corrupt one reported.
     runtime::CalibrationData d;
@@ -257,18 +372,24 @@ int serve(runtime::Pipeline& pipeline) {
   console_out.link = shared ? &g_link : nullptr;
   static runtime::Console console(rt, g_params, console_out, "edgefused " PROJECT_VERSION);
   console.set_echo(g_params.get_bool(runtime::kConsoleEcho));
-  Service service(rt, console);
+  Service service(rt, console, session);
   hal::ServiceSources sources;
   sources.console_fd = console_port.fd;
   sources.link_fd = link_port.fd;
   sources.console_on_link = shared;
   sources.tcp = g_link.tcp;
+  sources.text = g_params.get_bool(runtime::kRobotText) ? &g_text : nullptr;
   const int sig = hal::serve_until_signal(sources, service);
   g_devices.shutdown();
   std::printf("edgefused: stopped by %s after %u results\n", sig == SIGINT ? "SIGINT" : "SIGTERM",
               unsigned(rt.results_sent()));
+  const robot::SessionCounters& rc = session.counters();
+  std::printf("robot: %u requests (%u pose updates), %u bad, %u unknown, %u poses refused, %u replies\n",
+              unsigned(rc.requests), unsigned(rc.pose_updates), unsigned(rc.bad_requests), unsigned(rc.unknown_commands),
+              unsigned(rc.poses_refused), unsigned(rc.replies));
   std::fflush(stdout);
   g_tcp.close();
+  g_text.close();
   g_udp.close();
   hal::close_port(console_port);
   hal::close_port(link_port);

@@ -55,6 +55,14 @@ const ParamDef kParamDefs[kParamCount] = {
      "'' : hal.toml's first camera"},
     {"sensors.replay_speed", ParamType::kFloat, 0.05, 10, "1", false,
      "replayed cameras play at this multiple of the recorded rate (0.5: slow motion, for a loaded machine)"},
+    // edgefused: the robot's text profile (docs/PROTOCOL.md)
+    {"robot.text", ParamType::kBool, 0, 1, "true", false, "the robot's text port on/off"},
+    {"robot.text_port", ParamType::kInt, 0, 65535, "5557", false,
+     "the robot's text port (on link.tcp_bind; 0: any free port, printed as 'robot: HOST:PORT')"},
+    {"robot.units", ParamType::kString, 0, kParamTextMax, "m", false,
+     "text profile: translations in m or mm (a connection may change it: UNITS)"},
+    {"robot.rotation", ParamType::kString, 0, kParamTextMax, "xyzw", false,
+     "text profile: rotations as xyzw|wxyz|axisangle|kuka_abc (a connection may change it: ROTATION)"},
 };
 
 namespace {

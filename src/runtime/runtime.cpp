@@ -62,6 +62,7 @@ void Runtime::send_result() {
   r.status = result_.failed ? ResultStatus::kFailed : kept == 0 ? ResultStatus::kNoObjects : ResultStatus::kOk;
   r.objects = result_.objects;
   r.count = kept;
+  if (listener_ != nullptr) listener_->result_sent(r);
   for (int i = 0; i < params_.get_int(kReportRepeat); ++i) out_.publish(r);
 }
 

@@ -125,7 +125,16 @@ void run_pipeline(bool tracked) {
   // bracket drop out: the can, the lying bracket and the cylinder are left (600 points a box top at 2 mm).
   CHECK_TRUE(r.count >= (c.voxel_m <= 0.002f ? 4 : 3));
   for (int i = 0; i < r.count; ++i) CHECK_EQUAL(0u, r.objects[i].id);
+  // The rig's pose for a hand-eye station: the reference's newest pose times its mounting's
+  // inverse (the sim mounting when simulator truth is allowed, else the identity).
+  Pose T_map_rig, T_rig_ref;
+  uint64_t rig_stamp_us = 0;
+  CHECK_TRUE(p->rig_pose(T_map_rig, rig_stamp_us));
+  CHECK_EQUAL(p->reference_stamp_us(), rig_stamp_us);
+  if (!tracked || !p->devices().truth(0)->mounting(T_rig_ref)) T_rig_ref = Pose::identity();
+  CHECK_TRUE(((T_map_rig * T_rig_ref).t - p->reference_pose_at(rig_stamp_us).t).norm() < 1e-4f);
   p->stop_mapping();
+  CHECK_FALSE(p->rig_pose(T_map_rig, rig_stamp_us));  // not mapping: no station
   p->shutdown();
 }
 

@@ -16,6 +16,7 @@
 #include "edgefuse/io/ply.hpp"
 #include "edgefuse/io/png.hpp"
 #include "edgefuse/link/messages.hpp"
+#include "edgefuse/link/robot_codec.hpp"
 #include "edgefuse/runtime/calibration.hpp"
 
 namespace fs = std::filesystem;
@@ -151,6 +152,45 @@ void link_frames() {
   if (f) bytes("link", "result.bin", f, n);
 }
 
+// The robot's requests: a text session, and protobuf request frames with clock ticks between them
+// (fuzz_robot_request.cpp: 0xFF 0xFF n advances the clock by n ticks of 20 ms).
+void robot_requests() {
+  text("text_profile", "cycle.txt",
+       "CAPTURE 0.4 0 0.6 0 0 0 1\nPOSE 0.4,0,0.6,0,0,0,1\nDETECT\nNEXT\nPICKED OK\nNEXT\nPICKED FAILED\nNEXT\n"
+       "STATUS\nDETECT_ASYNC\nDETECT_STATUS\nSTOP\n");
+  text("text_profile", "formats.txt",
+       "UNITS mm\nROTATION kuka_abc\nCAPTURE 400 0 600 90 0 180\nROTATION axisangle\nPOSE 400 0 600 0 3.14159 0\n"
+       "ROTATION wxyz\nHANDEYE ADD 400 0 600 1 0 0 0\nHANDEYE SOLVE\nHANDEYE SAVE\nHANDEYE RESET\nCALIBRATION\n");
+  text("text_profile", "garbage.txt", "CAPTURE 1 2\nPICKED MAYBE\nJUMP\n\x01\x02\r\nNEXT 1,,2\nUNITS inch\n");
+  static link::FrameWriter w;
+  static link::Message m;
+  std::string cycle;
+  const robot::Command commands[] = {robot::Command::kCapture, robot::Command::kPose, robot::Command::kDetect,
+                                     robot::Command::kNext, robot::Command::kPickResult, robot::Command::kStatus,
+                                     robot::Command::kDetectAsync, robot::Command::kDetectStatus,
+                                     robot::Command::kHandEyeAdd, robot::Command::kHandEyeSolve,
+                                     robot::Command::kCalibrationGet, robot::Command::kUnknown, robot::Command::kStop};
+  uint32_t id = 1;
+  for (robot::Command c : commands) {
+    robot::Request r;
+    r.id = id++;
+    r.command = c;
+    r.has_pose = c == robot::Command::kCapture || c == robot::Command::kPose || c == robot::Command::kHandEyeAdd;
+    r.T_base_flange = Pose::from_tq(0.4f, 0.0f, 0.6f, 0.0f, 0.0f, 0.0f, 1.0f);
+    r.picked = true;
+    link::request_message(r, m);
+    size_t n = 0;
+    const uint8_t* f = w.encode(m, n);
+    check(f != nullptr, "robot_request", "a request does not encode");
+    if (f == nullptr) return;
+    cycle.append(reinterpret_cast<const char*>(f), n);
+    if (c == robot::Command::kCapture || c == robot::Command::kDetect) cycle += std::string("\xff\xff\x0a", 3);
+    if (c == robot::Command::kPose)
+      bytes("robot_request", "pose.bin", f, n);
+  }
+  text("robot_request", "cycle.bin", cycle);
+}
+
 void calib_slot() {
   runtime::CalibrationData d;
   runtime::CalibPose p;
@@ -192,6 +232,7 @@ int main(int argc, char** argv) {
   tomls(argv[1]);
   text_lists();
   link_frames();
+  robot_requests();
   calib_slot();
   console_scripts();
   std::printf("seeds written to %s%s\n", argv[2], g_ok ? "" : " (with errors above)");

@@ -20,7 +20,7 @@ RIG = os.path.abspath(sys.argv[2])
 work = os.path.abspath(sys.argv[3]); extra = sys.argv[4:]
 os.makedirs(work, exist_ok=True)
 log = open(work + "/log.txt", "w+")
-d = subprocess.Popen([EDGEFUSED, "--set", "link.tcp_port=0", "--set", "link.serial=", "--set", "console.echo=false",
+d = subprocess.Popen([EDGEFUSED, "--set", "link.tcp_port=0", "--set", "robot.text_port=0", "--set", "link.serial=", "--set", "console.echo=false",
                       "--set", "calib.dir=" + work + "/calib", "--set", "sensors.replay=" + RIG,
                       "--set", "tracking.poses=known", "--set", "localize.still_period_s=1"] + extra, stdout=log, stderr=subprocess.STDOUT, cwd=work)
 info = {}

@@ -112,43 +112,60 @@ void TcpServer::service() {
     setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));  // a pose is latency-critical
     *slot = Client{fd, false};
   }
-  // Clients do not talk on the link; read and discard, and notice hang-ups.
-  char sink[256];
-  for (Client& c : clients_) {
-    if (c.fd < 0) continue;
-    for (;;) {
-      const ssize_t n = ::recv(c.fd, sink, sizeof(sink), 0);
-      if (n > 0) continue;
-      if (n == 0 || (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
-        ::close(c.fd);
-        c = Client{};
-      }
-      break;
+  for (int i = 0; i < kMaxClients; ++i)
+    if (clients_[i].fd >= 0) read_client(i);
+}
+
+void TcpServer::drop_client(int i) {
+  ::close(clients_[i].fd);
+  clients_[i] = Client{};
+  if (input_ != nullptr) input_->closed(i);
+}
+
+// Hands what the client sent to the input (at most kReadPerServiceMax bytes), notices hang-ups.
+void TcpServer::read_client(int i) {
+  uint8_t buf[512];
+  for (size_t total = 0; total < kReadPerServiceMax;) {
+    const ssize_t n = ::recv(clients_[i].fd, buf, sizeof(buf), 0);
+    if (n > 0) {
+      if (input_ != nullptr) input_->received(i, buf, size_t(n));
+      total += size_t(n);
+      continue;
     }
+    if (n == 0 || (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) drop_client(i);
+    return;
   }
 }
 
-void TcpServer::broadcast(const uint8_t* frame, size_t len) {
-  for (Client& c : clients_) {
-    if (c.fd < 0) continue;
-    if (c.resync) {
-      const uint8_t zero = 0;
-      if (::send(c.fd, &zero, 1, MSG_NOSIGNAL | MSG_DONTWAIT) != 1) {
-        ++dropped_;
-        continue;
-      }
-      c.resync = false;
-    }
-    const ssize_t n = ::send(c.fd, frame, len, MSG_NOSIGNAL | MSG_DONTWAIT);
-    if (n == ssize_t(len)) continue;
-    if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK) {
-      ::close(c.fd);
-      c = Client{};
-      continue;
-    }
-    ++dropped_;
-    c.resync = n > 0;  // part of a frame went out: the receiver discards it at the next 0x00
+// One client: the resync byte first when its last message went out cut short. \return sent whole
+static bool send_one(int fd, bool& resync, uint8_t resync_byte, const uint8_t* data, size_t len, bool& dead) {
+  dead = false;
+  if (resync) {
+    if (::send(fd, &resync_byte, 1, MSG_NOSIGNAL | MSG_DONTWAIT) != 1) return false;
+    resync = false;
   }
+  const ssize_t n = ::send(fd, data, len, MSG_NOSIGNAL | MSG_DONTWAIT);
+  if (n == ssize_t(len)) return true;
+  dead = n < 0 && errno != EAGAIN && errno != EWOULDBLOCK;
+  resync = n > 0;  // part of a message went out: the receiver discards it at the resync byte
+  return false;
+}
+
+bool TcpServer::send_to(int client, const uint8_t* data, size_t len) {
+  Client& c = clients_[client];
+  if (c.fd < 0) return false;
+  bool dead = false;
+  if (send_one(c.fd, c.resync, resync_byte_, data, len, dead)) return true;
+  if (dead)
+    drop_client(client);
+  else
+    ++dropped_;
+  return false;
+}
+
+void TcpServer::broadcast(const uint8_t* frame, size_t len) {
+  for (int i = 0; i < kMaxClients; ++i)
+    if (clients_[i].fd >= 0) send_to(i, frame, len);
 }
 
 bool UdpSender::open(const char* host, int port, std::string& err) {

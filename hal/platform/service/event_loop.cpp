@@ -31,8 +31,12 @@ void read_inputs(const ServiceSources& s, ServiceHandler& handler) {
   }
   if (s.link_fd >= 0) {
     ssize_t r;
-    while ((r = ::read(s.link_fd, g_buf, sizeof(g_buf))) > 0)
-      if (s.console_on_link) handler.console_input(g_buf, size_t(r));
+    while ((r = ::read(s.link_fd, g_buf, sizeof(g_buf))) > 0) {
+      if (s.console_on_link)
+        handler.console_input(g_buf, size_t(r));
+      else
+        handler.link_input(reinterpret_cast<const uint8_t*>(g_buf), size_t(r));
+    }
   }
 }
 
@@ -46,17 +50,22 @@ int serve_until_signal(const ServiceSources& s, ServiceHandler& handler) {
   sd_notify_send("READY=1");
   std::printf("ready\n");
   std::fflush(stdout);
-  pollfd fds[3 + TcpServer::kMaxClients];
+  pollfd fds[4 + 2 * TcpServer::kMaxClients];
+  TcpServer* servers[2] = {s.tcp, s.text};
   while (!g_stop) {
     int n = 0;
     if (s.console_fd >= 0) fds[n++] = {s.console_fd, POLLIN, 0};
     if (s.link_fd >= 0) fds[n++] = {s.link_fd, POLLIN, 0};
-    if (s.tcp != nullptr && s.tcp->listen_fd() >= 0) fds[n++] = {s.tcp->listen_fd(), POLLIN, 0};
-    for (int i = 0; s.tcp != nullptr && i < TcpServer::kMaxClients; ++i)
-      if (s.tcp->client_fd(i) >= 0) fds[n++] = {s.tcp->client_fd(i), POLLIN, 0};
+    for (TcpServer* server : servers) {
+      if (server == nullptr) continue;
+      if (server->listen_fd() >= 0) fds[n++] = {server->listen_fd(), POLLIN, 0};
+      for (int i = 0; i < TcpServer::kMaxClients; ++i)
+        if (server->client_fd(i) >= 0) fds[n++] = {server->client_fd(i), POLLIN, 0};
+    }
     ::poll(fds, nfds_t(n), 10);
     read_inputs(s, handler);
-    if (s.tcp != nullptr) s.tcp->service();
+    for (TcpServer* server : servers)
+      if (server != nullptr) server->service();
     const uint64_t t = clock.now_us();
     handler.tick(t);
     if (watchdog_us > 0 && t >= next_watchdog_us) {

@@ -30,15 +30,18 @@ void close_port(Port& p) {
   p.fd = -1;
 }
 
-void LinkFanout::send(const uint8_t* frame, size_t len) {
-  if (serial_fd >= 0) {
-    const uint8_t zero = 0;
-    if (serial_resync) serial_resync = !write_all(serial_fd, &zero, 1, 0);
-    if (serial_resync || !write_all(serial_fd, frame, len, 0)) {
-      ++serial_drops;
-      serial_resync = true;
-    }
+void LinkFanout::send_serial(const uint8_t* frame, size_t len) {
+  if (serial_fd < 0) return;
+  const uint8_t zero = 0;
+  if (serial_resync) serial_resync = !write_all(serial_fd, &zero, 1, 0);
+  if (serial_resync || !write_all(serial_fd, frame, len, 0)) {
+    ++serial_drops;
+    serial_resync = true;
   }
+}
+
+void LinkFanout::send(const uint8_t* frame, size_t len) {
+  send_serial(frame, len);
   if (tcp != nullptr) tcp->broadcast(frame, len);
   if (udp != nullptr) udp->send(frame, len);
 }

@@ -48,4 +48,44 @@ class PoseHistory {
   uint64_t stamp_us_ = 0, prev_stamp_us_ = 0;
 };
 
+//! The robot's flange poses as streamed over the link (T_base_flange with the board-clock stamp of
+//! each), newest last, in a fixed ring: kCapacity covers 2 s at the link's 250 Hz, more than any
+//! latency offset between a frame and the robot's pose (the tracking looks a pose up by the frame's
+//! stamp). Stamps must increase: an older or equal stamp is refused (counted), so a late packet
+//! cannot fold the path back. No heap.
+class StampedPoseHistory {
+ public:
+  static constexpr int kCapacity = 512;
+
+  //! Appends a pose. \param stamp_us its time (board clock)  \param T_base_flange the pose
+  //! \return false (counted in refused()) when stamp_us is not newer than the last one
+  bool record(uint64_t stamp_us, const Pose& T_base_flange);
+  //! The pose at stamp_us, interpolated between the two recorded poses around it (at constant
+  //! velocity, as interpolate()). \param stamp_us the time  \param T_base_flange set on success
+  //! \return false when stamp_us lies outside the recorded span (older than the oldest pose kept,
+  //!         newer than the newest)
+  bool pose_at(uint64_t stamp_us, Pose& T_base_flange) const;
+  void clear() {
+    count_ = 0;
+    head_ = 0;
+  }
+  int size() const { return count_; }                     //!< poses held
+  uint32_t recorded() const { return recorded_; }        //!< poses accepted since start
+  uint32_t refused() const { return refused_; }          //!< poses refused (stamp not increasing)
+  //! The newest pose. \param stamp_us its stamp \return false when empty
+  bool newest(Pose& T_base_flange, uint64_t& stamp_us) const;
+
+ private:
+  struct Entry {
+    uint64_t stamp_us = 0;
+    Pose T_base_flange;
+  };
+  const Entry& at(int i) const { return ring_[(head_ + kCapacity - count_ + i) % kCapacity]; }  // 0 = oldest
+  Entry ring_[kCapacity];
+  int head_ = 0;   // where the next pose goes
+  int count_ = 0;
+  uint32_t recorded_ = 0;
+  uint32_t refused_ = 0;
+};
+
 }  // namespace edgefuse

@@ -52,6 +52,11 @@ enum ParamId : int {
   // edgefused: which cameras feed the map
   kSensorsFuse,
   kSensorsReplaySpeed,
+  // edgefused: the robot's text profile
+  kRobotText,
+  kRobotTextPort,
+  kRobotUnits,
+  kRobotRotation,
   kParamCount
 };
 

@@ -92,6 +92,15 @@ class Pipeline {
   //! The calibration changed (loaded, set, reset, calibrated): extrinsics apply from the next frame.
   //! \param d the runtime's calibration
   virtual void calibration_changed(const CalibrationData& d) { (void)d; }
+  //! The rig's newest pose in the map (the reference camera's tracked pose times the inverse of
+  //! its mounting on the rig): what a hand-eye station measures on the camera side.
+  //! \param T_map_rig set on success  \param stamp_us its capture stamp
+  //! \return false when there is none (not mapping, tracking lost, no pose source)
+  virtual bool rig_pose(Pose& T_map_rig, uint64_t& stamp_us) const {
+    (void)T_map_rig;
+    (void)stamp_us;
+    return false;
+  }
   virtual PipelineStats stats() const = 0;
   virtual bool map_empty() const = 0;
   virtual int device_count() const = 0;

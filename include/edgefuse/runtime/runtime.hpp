@@ -25,6 +25,14 @@ class CalibrationStorage {
   virtual bool load(CalibrationData& d, char* msg, size_t cap) = 0;
 };
 
+//! Told of every result once (whatever report.repeat says): the robot session's object list.
+class ResultListener {
+ public:
+  virtual ~ResultListener() = default;
+  //! \param r the numbered result, objects below localize.min_score already dropped
+  virtual void result_sent(const ResultInfo& r) = 0;
+};
+
 class Runtime : public ConsoleService {
  public:
   //! \param pipeline produces frames and poses
@@ -40,6 +48,8 @@ class Runtime : public ConsoleService {
     pipeline_.calibration_changed(calib_);
   }
   const CalibrationData& calibration() const { return calib_; }
+  //! \param l told of every result (null: nobody)
+  void set_result_listener(ResultListener* l) { listener_ = l; }
 
   //! Advances the pipeline and the state machine; sends due heartbeats and results.
   //! \param now_us monotonic time in microseconds
@@ -75,6 +85,7 @@ class Runtime : public ConsoleService {
   ParamStore& params_;
   CalibrationStorage& storage_;
   Publisher& out_;
+  ResultListener* listener_ = nullptr;
   CalibrationData calib_;
   RuntimeState state_ = RuntimeState::kIdle;
   bool scanning_ = false;       // return to MAPPING after a report

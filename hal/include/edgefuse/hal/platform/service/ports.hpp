@@ -36,6 +36,9 @@ class LinkFanout final : public link::FrameSink {
   uint32_t serial_drops = 0;
   bool serial_resync = false;  //!< a frame may have gone out cut short: a 0x00 ends it first
   void send(const uint8_t* frame, size_t len) override;
+  //! Sends one frame on the serial port alone (a reply to a request that came in on it).
+  //! \param frame a whole frame  \param len its length
+  void send_serial(const uint8_t* frame, size_t len);
 };
 
 }  // namespace edgefuse::hal
