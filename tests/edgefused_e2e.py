@@ -21,7 +21,7 @@ import termios
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import command, emulation, open_raw, popen, vm_data_kib  # noqa: E402
+from edgefused_helpers import command, emulation, open_raw, popen, vm_data_kib, wait_started  # noqa: E402
 
 EMU, SLOW = emulation(sys.argv)
 EDGEFUSED, EDGEFUSE, LISTEN_PY, WORK = sys.argv[1:5]
@@ -92,16 +92,7 @@ d = popen([*EMU, EDGEFUSED, *SIM, "--set", "link.tcp_port=0", "--set", "robot.te
            "--set", "link.udp_host=127.0.0.1", "--set", "link.udp_port=%d" % udp_port,
            "--set", "link.heartbeat_ms=200", "--set", "calib.dir=" + os.path.join(WORK, "calib")],
           stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
-info = {}
-end = time.monotonic() + 10 * SLOW
-while time.monotonic() < end and "ready" not in info:
-    time.sleep(0.05)
-    log.seek(0)
-    for line in log.read().splitlines():
-        k, _, v = line.partition(": ")
-        info[k] = v
-        if line == "ready":
-            info["ready"] = True
+info = wait_started(d, log, 10)
 check("ready" in info, "edgefused started: " + ", ".join("%s=%s" % kv for kv in info.items()))
 if "ready" not in info:
     d.kill()

@@ -36,7 +36,7 @@ import termios
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import command, emulation, open_raw, popen, vm_data_kib  # noqa: E402
+from edgefused_helpers import command, emulation, open_raw, popen, vm_data_kib, wait_started  # noqa: E402
 
 EMU, SLOW = emulation(sys.argv)
 SIM_SCENE = "--no-sim-scene" not in sys.argv
@@ -84,16 +84,7 @@ def start(extra, logname):
     d = popen(EMU + [EDGEFUSED, "--set", "link.tcp_port=0", "--set", "robot.text_port=0", "--set", "link.serial=", "--set",
                      "console.echo=false", "--set", "calib.dir=" + os.path.join(WORK, "calib")] +
               extra, stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
-    info = {}
-    end = time.monotonic() + 120 * SLOW  # start-up samples the models (a few seconds; more under sanitizers)
-    while time.monotonic() < end and "ready" not in info and d.poll() is None:
-        time.sleep(0.1)
-        log.seek(0)
-        for line in log.read().splitlines():
-            k, _, v = line.partition(": ")
-            info[k] = v
-            if line == "ready":
-                info["ready"] = True
+    info = wait_started(d, log, 120)  # start-up samples the models (a few seconds; more under sanitizers)
     return d, log, info
 
 
@@ -177,7 +168,10 @@ while time.monotonic() < t0 + 120 * SLOW and ("end of recording" not in status o
     # (200 ms at the set's 5 fps); then it is counted as a drop.
     m = re.search(r"drops (\d+)", status)
     drops = int(m.group(1)) if m else -1
-check("end of recording" in status and frames + drops == 20 and frames >= 18,
+# Under an emulator a frame takes 1-2 s of the 4 s between frames, on two cores shared with other
+# tests: a few more frames are dropped there (the map is still checked by the results below).
+min_frames = 18 if not EMU else 14
+check("end of recording" in status and frames + drops == 20 and frames >= min_frames,
       "mapping: %d frames integrated (%d dropped), then end of recording" % (frames, drops))
 # Every camera streams on its own acquisition thread and shows its counters, the tof too.
 check(re.search(r"device xtion ended \(end of recording\) \(map\) frames 20 published 20", status) is not None and

@@ -1,6 +1,6 @@
 """Helpers shared by the edgefused end-to-end tests (edgefused_e2e.py, edgefused_fusion_e2e.py):
 the options of a run under an emulator, the programs they start (stopped when the test ends, also
-on an exception), the console pseudo-terminal in raw mode, one console command and its reply, the
+on an exception), edgefused's start-up lines, the console pseudo-terminal in raw mode, one console command and its reply, the
 process's VmData."""
 import atexit
 import os
@@ -57,6 +57,23 @@ def _kill_started():
         if p.poll() is None:
             p.kill()
             p.wait()
+
+
+def wait_started(proc, log, timeout_s):
+    """Reads edgefused's start-up lines from its log file (`console: /dev/pts/N`, `tcp: HOST:PORT`,
+    `robot: HOST:PORT`, ... then `ready`) until `ready`, the process ends or timeout_s passes (times
+    TIME_FACTOR under an emulator). Returns {key: value}, with "ready": True once it was printed."""
+    info = {}
+    end = time.monotonic() + timeout_s * TIME_FACTOR
+    while time.monotonic() < end and "ready" not in info and proc.poll() is None:
+        time.sleep(0.05)
+        log.seek(0)
+        for line in log.read().splitlines():
+            k, _, v = line.partition(": ")
+            info[k] = v
+            if line == "ready":
+                info["ready"] = True
+    return info
 
 
 def open_raw(dev):

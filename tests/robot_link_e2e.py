@@ -22,7 +22,7 @@ import time
 import zlib
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import emulation, open_raw, popen  # noqa: E402
+from edgefused_helpers import emulation, open_raw, popen, wait_started  # noqa: E402
 
 EMU, SLOW = emulation(sys.argv)
 EDGEFUSED, LISTEN_PY, WORK = sys.argv[1:4]
@@ -119,16 +119,7 @@ log = open(os.path.join(WORK, "edgefused.log"), "w+")
 d = popen([*EMU, EDGEFUSED, "--set", "link.tcp_port=0", "--set", "robot.text_port=0", "--set", "link.serial=pty",
            "--set", "console.serial=", "--set", "link.heartbeat_ms=100",
            "--set", "calib.dir=" + os.path.join(WORK, "calib")], stdout=log, stderr=subprocess.STDOUT, cwd=WORK)
-info = {}
-end = time.monotonic() + 10 * SLOW
-while time.monotonic() < end and "ready" not in info:
-    time.sleep(0.05)
-    log.seek(0)
-    for line in log.read().splitlines():
-        k, _, v = line.partition(": ")
-        info[k] = v
-        if line == "ready":
-            info["ready"] = True
+info = wait_started(d, log, 10)
 check("ready" in info and "robot" in info, "edgefused started and printed 'robot: HOST:PORT': %s" % info.get("robot"))
 if "ready" not in info or "robot" not in info:
     d.kill()
