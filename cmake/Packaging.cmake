@@ -106,6 +106,8 @@ endif()
 # Lower bounds: bookworm's versions of the libraries the sysroot holds.
 set(EDGEFUSE_CROSS_RUNTIME_SONAMES
   "libc.so.6=libc6 (>= 2.36)"
+  "ld-linux-aarch64.so.1=libc6 (>= 2.36)"
+  "ld-linux-armhf.so.3=libc6 (>= 2.36)"
   "libm.so.6=libc6 (>= 2.36)"
   "libstdc++.so.6=libstdc++6 (>= 12)"
   "libgcc_s.so.1=libgcc-s1 (>= 3.0)"
