@@ -30,7 +30,7 @@ namespace {
 const char* kUsage =
     "usage: edgefused [--board NAME] [--board-dir DIR] [--config FILE] [--set KEY=VALUE]... [--check]\n"
     "       edgefused --version\n"
-    "  --board NAME     the board's data folder in the board data (default: the build's board)\n"
+    "  --board NAME     the board, a folder of the board data (default: the build's board)\n"
     "  --board-dir DIR  the board data: one folder per board (default: <exe>/../share/edgefuse/board,\n"
     "                   /usr/share/edgefuse/board when installed; the source tree's board/ in a build tree)\n"
     "  --config FILE    runtime configuration (TOML); every key is a parameter (param get lists them)\n"
