@@ -82,7 +82,6 @@ ${entries}};
 inline constexpr int kBoardCount = ${index};
 inline constexpr int kBuildBoardIndex = ${build_index};
 inline constexpr const BoardCapacities& kBuildBoard = kBoards[kBuildBoardIndex];
-inline constexpr const char* kBoardSourceDir = \"${root}\";
 }  // namespace edgefuse
 " @ONLY)
 endfunction()

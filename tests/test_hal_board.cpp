@@ -13,7 +13,7 @@
 using namespace edgefuse;
 
 namespace {
-std::string board_file(const char* board) { return std::string(kBoardSourceDir) + "/" + board + "/hal.toml"; }
+std::string board_file(const char* board) { return std::string(EDGEFUSE_TEST_BOARD_DIR) + "/" + board + "/hal.toml"; }
 
 std::string write_tmp(const std::string& text) {
   const std::string p = "/tmp/edgefuse_test_hal_" + std::to_string(::getpid()) + ".toml";

@@ -20,7 +20,7 @@ DepthFrameStorage<640 * 480> g_frame;
 io::BoardHal board(const char* name) {
   io::BoardHal hal;
   std::string err;
-  CHECK_TEXT(io::read_board_hal(std::string(kBoardSourceDir) + "/" + name + "/hal.toml", hal, err), err.c_str());
+  CHECK_TEXT(io::read_board_hal(std::string(EDGEFUSE_TEST_BOARD_DIR) + "/" + name + "/hal.toml", hal, err), err.c_str());
   return hal;
 }
 }  // namespace

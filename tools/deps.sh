@@ -15,6 +15,9 @@ PACKAGES=(
   # HAL device backends: OpenNI2 (with its Dummy test device), libgpiod 1.6, libusb 1.0;
   # V4L2 needs only linux/videodev2.h (linux-libc-dev, with the compiler).
   libopenni2-dev libgpiod-dev libusb-1.0-0-dev
+  # Debian packages (tools/package, test_package_install): cpack's dpkg-shlibdeps, lintian, and
+  # systemd-analyze for the unit
+  dpkg-dev lintian systemd
 )
 
 missing=()

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <vector>
 
+#include "edgefuse/hal/platform/config/board_data_dir.hpp"
 #include "edgefuse/hal/platform/config/board_defaults.hpp"
 #include "edgefuse/board_config.hpp"
 #include "edgefuse/io/board_hal.hpp"
@@ -67,8 +68,8 @@ bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) 
   }
   // Devices from the board's hal.toml or config.hal_file (sensors.replay: every camera replays the
   // rig set instead).
-  const std::string hal_path =
-      config.hal_file.empty() ? std::string(kBoardSourceDir) + "/" + config.board + "/hal.toml" : config.hal_file;
+  std::string hal_path = config.hal_file;
+  if (hal_path.empty() && !hal::board_file_path(config.board, "hal.toml", hal_path, err)) return false;
   hal::BoardDefaults defaults;
   if (!init_cameras(hal_path, err) || !init_fused(hal_path, err) || !hal::read_board_defaults(config.board, defaults, err))
     return false;

@@ -10,33 +10,42 @@
 #include <string>
 
 #include "device_pipeline.hpp"
+#include "edgefuse/hal/platform/config/board_data_dir.hpp"
 #include "edgefuse/hal/platform/config/board_defaults.hpp"
 #include "edgefuse/hal/platform/config/calib_file_store.hpp"
 #include "edgefuse/hal/platform/config/config_toml.hpp"
 #include "edgefuse/hal/platform/service/event_loop.hpp"
 #include "edgefuse/hal/platform/service/ports.hpp"
 #include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
+#include "edgefuse/link/messages.hpp"
 #include "edgefuse/link/publisher.hpp"
 #include "edgefuse/link/robot_codec.hpp"
 #include "edgefuse/link/text_profile.hpp"
+#include "edgefuse/math/real.hpp"
 #include "edgefuse/memory/arena.hpp"
 #include "edgefuse/robot/robot_session.hpp"
 #include "edgefuse/runtime/console.hpp"
 #include "edgefuse/runtime/runtime.hpp"
+#include "edgefuse/version.hpp"
 
 namespace edgefuse::firmware {
 namespace {
 
 const char* kUsage =
-    "usage: edgefused [--board NAME] [--config FILE] [--set KEY=VALUE]... [--check]\n"
-    "  --board NAME     board folder under board/ (default: the build's board)\n"
+    "usage: edgefused [--board NAME] [--board-dir DIR] [--config FILE] [--set KEY=VALUE]... [--check]\n"
+    "       edgefused --version\n"
+    "  --board NAME     the board, a folder of the board data (default: the build's board)\n"
+    "  --board-dir DIR  the board data: one folder per board (default: <exe>/../share/edgefuse/board,\n"
+    "                   /usr/share/edgefuse/board when installed; the source tree's board/ in a build tree)\n"
     "  --config FILE    runtime configuration (TOML); every key is a parameter (param get lists them)\n"
     "  --set KEY=VALUE  override one parameter, e.g. --set link.tcp_port=6000 (repeatable)\n"
     "  --check          check the board data, the configuration and the --set values, print\n"
-    "                   'configuration OK' and exit 0 (1 with the error) without opening devices or ports\n";
+    "                   'configuration OK' and exit 0 (1 with the error) without opening devices or ports\n"
+    "  --version        print the version, the board, the numeric build and the link protocol version\n";
 
 struct CommandLine {
   std::string board = build_board().name;
+  std::string board_dir;  //!< "" : searched (board_data_dir.hpp)
   std::string config;
   std::string overrides[64];
   int override_count = 0;
@@ -136,6 +145,13 @@ class TextInput final : public hal::TcpInput {
 FrameInput g_frame_input;
 TextInput g_text_input;
 
+// One "key: value" per line after the first, for people and for scripts (the package tests).
+void print_version() {
+  std::printf("edgefused %s\nboard: %s\nnumeric: %s\nprotocol: %d\n", kVersion, build_board().name,
+              kFixedPointBuild ? "fixed-point Q16.16" : "float",
+              int(edgefuse_link_ProtocolVersion_PROTOCOL_VERSION_CURRENT));
+}
+
 // \return -1 to go on, else the exit code (--help: 0, a bad argument: 2)
 int parse_command_line(int argc, char** argv, CommandLine& c) {
   for (int i = 1; i < argc; ++i) {
@@ -144,12 +160,18 @@ int parse_command_line(int argc, char** argv, CommandLine& c) {
       std::printf("%s", kUsage);
       return 0;
     }
-    if ((a == "--board" || a == "--config" || a == "--set") && i + 1 >= argc) {
+    if (a == "--version") {
+      print_version();
+      return 0;
+    }
+    if ((a == "--board" || a == "--board-dir" || a == "--config" || a == "--set") && i + 1 >= argc) {
       std::fprintf(stderr, "edgefused: %s needs a value\n%s", a.c_str(), kUsage);
       return 2;
     }
     if (a == "--board") {
       c.board = argv[++i];
+    } else if (a == "--board-dir") {
+      c.board_dir = argv[++i];
     } else if (a == "--config") {
       c.config = argv[++i];
     } else if (a == "--check") {
@@ -175,6 +197,7 @@ bool load_parameters(const CommandLine& c, std::string& err) {
     for (int i = 0; i < board_count(); ++i) err += std::string(" ") + board_at(i).name;
     return false;
   }
+  hal::set_board_data_dir(c.board_dir);
   hal::BoardDefaults bd;
   if (!hal::read_board_defaults(c.board, bd, err)) return false;
   char text[32], e[200];
@@ -370,7 +393,8 @@ int serve(runtime::Pipeline& pipeline) {
   static ConsoleOut console_out;
   console_out.fd = shared ? link_port.fd : console_port.fd;
   console_out.link = shared ? &g_link : nullptr;
-  static runtime::Console console(rt, g_params, console_out, "edgefused " PROJECT_VERSION);
+  static const std::string banner = std::string("edgefused ") + kVersion;
+  static runtime::Console console(rt, g_params, console_out, banner.c_str());
   console.set_echo(g_params.get_bool(runtime::kConsoleEcho));
   Service service(rt, console, session);
   hal::ServiceSources sources;
@@ -404,10 +428,12 @@ int run_edgefused(int argc, char** argv, runtime::Pipeline* pipeline) {
   if (code >= 0) return code;
   std::string err;
   if (!load_parameters(c, err) || !check_combinations(err)) return fail(err);
-  std::printf("edgefused %s: board %s, config %s, voxel %g m, truncation %g m\n", PROJECT_VERSION, c.board.c_str(),
+  std::printf("edgefused %s: board %s, config %s, voxel %g m, truncation %g m\n", kVersion, c.board.c_str(),
               c.config.empty() ? "(defaults)" : c.config.c_str(), g_params.get_number(runtime::kTsdfVoxelM),
               g_params.get_number(runtime::kTsdfTruncM));
   if (c.check_only) {  // everything above reads files only; the devices, ports and files below are not touched
+    std::string dir;
+    if (hal::board_data_dir(dir, err)) std::printf("board data: %s\n", dir.c_str());
     std::printf("configuration OK\n");
     return 0;
   }

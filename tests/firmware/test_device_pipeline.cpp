@@ -45,7 +45,7 @@ void sleep_ms(int ms) {
 firmware::DevicePipelineConfig sim_rig_config() {
   firmware::DevicePipelineConfig c;
   c.board = kBuildBoard.name;
-  c.hal_file = std::string(kBoardSourceDir) + "/host-sim/hal.toml";
+  c.hal_file = std::string(EDGEFUSE_TEST_BOARD_DIR) + "/host-sim/hal.toml";
   hal::BoardDefaults d;
   std::string err;
   CHECK_TRUE_TEXT(hal::read_board_defaults(c.board, d, err), err.c_str());

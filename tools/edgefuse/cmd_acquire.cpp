@@ -1,5 +1,5 @@
-// edgefuse acquire [--board NAME] [--seconds S] [--replay DATASET] [--fault KIND] [--fault-at S]
-// Runs the acquisition runtime on the devices of board/<NAME>/hal.toml (default: the build board;
+// edgefuse acquire [--board NAME] [--board-dir DIR] [--seconds S] [--replay DATASET] [--fault KIND] [--fault-at S]
+// Runs the acquisition runtime on the devices of <board data>/<NAME>/hal.toml (default: the build board;
 // host-sim = the simulated rig): one thread per camera, frames through the static pools, the first
 // two cameras paired by stamp. Prints every camera's status counters each second and a summary.
 // --fault stall|drop|garbage|unplug injects that fault into the first camera at --fault-at
@@ -23,6 +23,7 @@
 #include "edgefuse/hal/acquisition/scanner_worker.hpp"
 #include "edgefuse/hal/devices/hal_devices.hpp"
 #include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
+#include "edgefuse/hal/platform/config/board_data_dir.hpp"
 
 namespace edgefuse::cli {
 
@@ -39,7 +40,7 @@ hal::AcquisitionCounters g_profile_counters;
 hal::ProfileChannel g_profiles;
 
 const char* kUsage =
-    "usage: edgefuse acquire [--board NAME] [--seconds S] [--replay DATASET] "
+    "usage: edgefuse acquire [--board NAME] [--board-dir DIR] [--seconds S] [--replay DATASET] "
     "[--fault stall|drop|garbage|unplug] [--fault-at S]\n";
 
 // What the command line asks for.
@@ -60,7 +61,7 @@ bool bad_usage(Failure& f, const std::string& why) {
 
 bool parse_options(int argc, char** argv, AcquireOptions& o, Failure& f) {
   std::string err;
-  if (!o.args.parse(argc, argv, {"board", "seconds", "replay", "fault", "fault-at"}, {}, err)) return bad_usage(f, err);
+  if (!o.args.parse(argc, argv, {"board", "board-dir", "seconds", "replay", "fault", "fault-at"}, {}, err)) return bad_usage(f, err);
   if (!o.args.positional().empty()) return bad_usage(f, "unexpected argument");
   if (!o.args.get_int("seconds", 1, 86400, o.seconds, err) || !o.args.get_float("fault-at", 0, 86400, o.fault_at, err))
     return bad_usage(f, err);
@@ -68,8 +69,8 @@ bool parse_options(int argc, char** argv, AcquireOptions& o, Failure& f) {
   if (!o.fault.empty() && o.fault != "stall" && o.fault != "drop" && o.fault != "garbage" && o.fault != "unplug")
     return bad_usage(f, "--fault '" + o.fault + "' is not stall, drop, garbage or unplug");
   o.board = o.args.get("board", build_board().name);
-  o.path = std::string(kBoardSourceDir) + "/" + o.board + "/hal.toml";
-  return true;
+  hal::set_board_data_dir(o.args.get("board-dir"));
+  return hal::board_file_path(o.board, "hal.toml", o.path, err) || fail(f, err);
 }
 
 // The devices, the frame pools, the workers that fill them and what the loop took. Declared in

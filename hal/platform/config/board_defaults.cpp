@@ -5,9 +5,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "edgefuse/hal/platform/config/board_data_dir.hpp"
 #include "edgefuse/hal/platform/config/toml_guard.hpp"
-
-#include "edgefuse/board_config.hpp"
 
 namespace edgefuse::hal {
 namespace {
@@ -29,7 +28,8 @@ bool read_number(const toml::table& t, const std::string& file, const char* key,
 }  // namespace
 
 bool read_board_defaults(const std::string& board, BoardDefaults& out, std::string& err) {
-  const std::string file = std::string(kBoardSourceDir) + "/" + board + "/board.toml";
+  std::string file;
+  if (!board_file_path(board, "board.toml", file, err)) return false;
   std::ifstream in(file, std::ios::binary);
   if (!in) {
     err = file + ": cannot open the board file";

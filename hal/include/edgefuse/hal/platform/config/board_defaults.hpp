@@ -13,7 +13,7 @@ struct BoardDefaults {
   int threads = 1;
 };
 
-//! Reads board/<name>/board.toml from the source tree the program was built from.
+//! Reads <board data folder>/<name>/board.toml (the folder: board_data_dir.hpp).
 //! \return false with `err` naming the file and key when a value is missing or out of range
 bool read_board_defaults(const std::string& board, BoardDefaults& out, std::string& err);
 
