@@ -13,12 +13,14 @@
 //     the first frame, only its repeatability of 0.05 mm / 0.005 degrees): "robot+icp" places the
 //     frames closer to the truth than "robot" (median and worst frame: 0.3 against 0.6 mm, 0.4
 //     against 1 mm), within 0.05 voxel, and its map's raycast agrees better with the rendered scene;
-//   - a frame outside the robot's poses (none yet at its stamp) has no pose.
+//   - a frame outside the robot's poses (none yet at its stamp) has no pose;
+//   - the steady-state step (the robot's pose and the mapping) allocates nothing.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <vector>
 
+#include "alloc_counter.hpp"
 #include "edgefuse/pipeline/mapper.hpp"
 #include "edgefuse/pipeline/pose_history.hpp"
 #include "edgefuse/runtime/flange_pose_source.hpp"
@@ -121,6 +123,7 @@ struct Outcome {
   std::vector<float> dt_m, deg;  // per frame, against the truth
   float median_m = 0, worst_m = 0, median_deg = 0, worst_deg = 0;
   DepthAgreement map;  // the map's raycast against the rendered scene at the last frame's truth
+  long allocations = 0;  // in the steady-state steps (the robot's pose and the mapping)
 };
 
 float median(std::vector<float> v) {
@@ -155,9 +158,11 @@ Outcome map_with_robot(PoseMode mode, const RobotErrors& errors, int64_t latency
     render(scene, cam, truth[i], depth);
     const uint64_t stamp_us = kFirstFrameUs + uint64_t(i) * kFramePeriodUs;
     Pose given;
-    CHECK(runtime::robot_camera_pose(robot, stamp_us, latency_us, T_flange_cam, given));
     ReferenceStep step;
+    if (i >= 2) alloc_count_start();
+    CHECK(runtime::robot_camera_pose(robot, stamp_us, latency_us, T_flange_cam, given));
     CHECK(mapper.map_reference(ref, sensor_frame(depth, cam, stamp_us), &given, Pose(), step) == Status::kOk);
+    if (i >= 2) out.allocations += alloc_count();
     CHECK(step.has_pose && step.integrated);
     float dt, deg;
     pose_distance(step.T_world_cam, truth[i], dt, deg);
@@ -192,6 +197,8 @@ TEST(PipelineRobotPoses, ExactRobotPosesGiveTheTruth) {
   report("exact robot:", robot);
   report("exact robot + icp:", corrected);
   // Robot updates fall on every frame stamp: the pose is the truth up to float rounding.
+  LONGS_EQUAL(0, robot.allocations);
+  LONGS_EQUAL(0, corrected.allocations);
   CHECK(robot.worst_m < 1e-5f);
   CHECK(robot.worst_deg < 0.005f);
   // ICP against a map of 1 cm voxels from exact priors: within a tenth of a voxel.
