@@ -139,7 +139,7 @@ TEST(RuntimeConfig, TheShippedHostSimConfigLoadsAndEqualsTheDefaultsButTheSimula
   CHECK_TEXT(hal::load_config_toml(std::string(EDGEFUSE_SOURCE_DIR) + "/board/host-sim/edgefused.toml", p, err),
              err.c_str());
   ParamStore defaults;
-  STRCMP_EQUAL("tracked", defaults.get_text(kTrackingPoses));
+  STRCMP_EQUAL("icp", defaults.get_text(kTrackingPoses));
   CHECK_FALSE(defaults.get_bool(kTrackingSimTruth));
   STRCMP_EQUAL("known", p.get_text(kTrackingPoses));
   CHECK_TRUE(p.get_bool(kTrackingSimTruth));

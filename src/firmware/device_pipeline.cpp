@@ -52,7 +52,45 @@ runtime::TrackingState runtime_state(TrackState s) {
                                       : runtime::TrackingState::kLost;
 }
 
+PoseMode mapper_pose_mode(CameraPoses p) {
+  switch (p) {
+    case CameraPoses::kIcp: return PoseMode::kTracked;
+    case CameraPoses::kRobotIcp: return PoseMode::kPrior;
+    case CameraPoses::kKnown:
+    case CameraPoses::kRobot: break;
+  }
+  return PoseMode::kKnown;
+}
+
+const char* pose_mode_text(const DevicePipelineConfig& c) {
+  switch (c.poses) {
+    case CameraPoses::kIcp:
+      return c.push_every_frame ? "icp (ICP against the raycast model, every frame pushed)"
+                                : "icp (ICP against the raycast model, push after 1 cm / 1 deg)";
+    case CameraPoses::kKnown: return "known (the backend's truth)";
+    case CameraPoses::kRobot: return "robot (flange pose x hand-eye, every frame pushed)";
+    case CameraPoses::kRobotIcp:
+      return c.push_every_frame ? "robot+icp (flange pose x hand-eye corrected by ICP, every frame pushed)"
+                                : "robot+icp (flange pose x hand-eye corrected by ICP, push after 1 cm / 1 deg)";
+  }
+  return "";
+}
+
 }  // namespace
+
+bool parse_camera_poses(const std::string& text, CameraPoses& out) {
+  if (text == "icp" || text == "tracked")
+    out = CameraPoses::kIcp;
+  else if (text == "known")
+    out = CameraPoses::kKnown;
+  else if (text == "robot")
+    out = CameraPoses::kRobot;
+  else if (text == "robot+icp")
+    out = CameraPoses::kRobotIcp;
+  else
+    return false;
+  return true;
+}
 
 bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) {
   config_ = config;
@@ -102,7 +140,7 @@ bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) 
     return false;
   }
   MapperParams mp;
-  mp.poses = tracked() ? PoseMode::kTracked : PoseMode::kKnown;
+  mp.poses = mapper_pose_mode(config.poses);
   mp.tracker.push.every_frame = config.push_every_frame;
   mp.noise_weights = use_trust_;
   const CameraStream& ref = cams_[order_[0]];
@@ -195,10 +233,10 @@ bool DevicePipeline::init_fused(const std::string& hal_path, std::string& err) {
     order_[fuse_count_++] = found;
   }
   const CameraStream& ref = cams_[order_[0]];
-  if (config_.known_poses && devices_.truth(ref.index) == nullptr) {
+  if (config_.poses == CameraPoses::kKnown && devices_.truth(ref.index) == nullptr) {
     err = "tracking.poses = known: camera '" + ref.name +
           "' offers no true poses (only the sim backend and a replayed recording with ground truth do); "
-          "use tracking.poses = tracked";
+          "use tracking.poses = icp (or robot, robot+icp with a robot connected)";
     return false;
   }
   return true;
@@ -254,10 +292,10 @@ void DevicePipeline::print_setup() const {
               ref.name.c_str(), config_.replay.empty() ? "hal.toml backend" : "replay of ", config_.replay.c_str(),
               ref.slot.intr.width, ref.slot.intr.height, ref.slot.tof() ? "tof" : "structured-light",
               config_.bilateral ? "+bilateral" : "", volume_.dim(), volume_.voxel_m() * 1e3,
-              tracked() ? (config_.push_every_frame ? "tracked (ICP against the raycast model, every frame pushed)"
-                                                    : "tracked (ICP against the raycast model, push after 1 cm / 1 deg)")
-                        : "known (the backend's truth)",
-              threads_);
+              pose_mode_text(config_), threads_);
+  if (robot_poses())
+    std::printf("pipeline: camera poses from the robot's flange poses (robot.latency_us %lld), in the robot's base frame\n",
+                static_cast<long long>(config_.robot_latency_us));
   if (config_.use_sim_truth)
     std::printf("pipeline: simulator truth allowed (tracking.sim_truth): robot pose, rig mountings, tracking error\n");
   std::string names, fused;
@@ -384,6 +422,7 @@ bool DevicePipeline::start_mapping(const char** why) {
     camera_running_ = true;
   }
   mapping_ = true;
+  warned_no_pose_ = false;  // said again once a scan
   return true;
 }
 
@@ -408,13 +447,17 @@ void DevicePipeline::step(uint64_t now_us) {
   if (!mapping_ || !camera_running_) return;
   // Newest-frame policy for the reference camera; the others are paired with its frames below.
   CameraStream& ref = cams_[order_[0]];
-  ref.take_newest();
+  // Robot modes: the held frame is placed or skipped (counted) before a newer one is taken; while it
+  // waits for the robot's pose at its stamp a newer frame would only wait longer.
+  if (!robot_poses() || !ref.held_new) ref.take_newest();
   if (localization_.busy()) {
     update_drops();
     return;  // the volume belongs to the localiser now; the held frames wait
   }
   const hal::DeviceState st = ref.counters.device_state();
-  if (ref.held_new) {
+  if (ref.held_new && wait_for_robot_pose(ref, now_us)) {
+    // held until the robot's pose at its stamp arrives (or a newer frame replaces it)
+  } else if (ref.held_new) {
     ref.held_new = false;
     process_reference(now_us);
     drain_profiles();  // between the cameras too: the profile pool holds 150 ms at 100 Hz
@@ -496,11 +539,14 @@ void DevicePipeline::process_reference(uint64_t now_us) {
   const hal::TruthSource* truth = tracked() ? sim_truth(ref.index) : devices_.truth(ref.index);
   Pose known;
   const bool has_known = truth != nullptr && truth->pose_of(ref.held->sequence, known);
-  // A tracked map starts at the pose the robot's flange and the calibrated hand-eye mounting give.
-  const bool starts = tracked() && mapper_.starts_new_map();
-  const Pose start = starts ? tracking_start_pose(ref.held->sequence) : Pose::identity();
+  // The pose given with the frame: the truth (known), the robot's (robot, robot+icp: the prior).
+  Pose given = known;
+  const bool has_given = robot_poses() ? robot_pose(ref.held->stamp_us, given) : !tracked() && has_known;
+  // An icp map starts at the pose the robot's flange and the calibrated hand-eye mounting give.
+  const bool starts = config_.poses == CameraPoses::kIcp && mapper_.starts_new_map();
+  const Pose start = starts ? tracking_start_pose(ref.held->sequence, ref.held->stamp_us) : Pose::identity();
   ReferenceStep step;
-  const Status s = mapper_.map_reference(ref.slot, ref.held_frame(), has_known ? &known : nullptr, start, step);
+  const Status s = mapper_.map_reference(ref.slot, ref.held_frame(), has_given ? &given : nullptr, start, step);
   if (step.filtered) ++stats_.frames;
   if (step.centred) {
     const Vec3f& o = volume_.origin_m();
@@ -512,54 +558,96 @@ void DevicePipeline::process_reference(uint64_t now_us) {
     ++pipeline_drops_;
     return;
   }
-  if (tracked()) {
+  if (config_.poses != CameraPoses::kIcp && !has_given) {
+    count_unplaced_frame(ref);
+    return;
+  }
+  if (icp_poses()) {
     stats_.tracking = runtime_state(step.track.state);
     if (step.track.state == TrackState::kLost) ++lost_frames_;
-    if (has_known) track_err_m_ = (step.T_world_cam.t - known.t).norm();  // against the backend's truth
-  } else if (!has_known) {
-    // No truth for this frame (a real device, or a recording without ground truth) and tracking is
-    // off (tracking.poses = known): the frame cannot be placed and is not integrated.
-    stats_.tracking = runtime::TrackingState::kLost;
-    ++pipeline_drops_;
-    if (!warned_no_pose_) {
-      std::printf("pipeline: camera %s gives no known pose (set tracking.poses = tracked): frames are not integrated\n",
-                  ref.name.c_str());
-      warned_no_pose_ = true;
-    }
-    return;
   } else {
     stats_.tracking = runtime::TrackingState::kOk;
   }
+  if (tracked() && has_known) track_err_m_ = (step.T_world_cam.t - known.t).norm();  // against the backend's truth
   still_.update(step.T_world_cam, now_us);
   stats_.still_since_us = still_.still_since_us();
   if (step.integrated) ++ref.integrated;
 }
 
-// T_world_ref = T_world_flange * T_flange_rig * T_rig_ref: the robot's flange pose (where a robot
-// pose is available), the hand-eye mounting and the reference camera's mounting on the rig.
-Pose DevicePipeline::tracking_start_pose(uint32_t sequence) {
+// A frame without its given pose (known: no truth for it; robot modes: no robot pose at its stamp)
+// cannot be placed: not integrated, counted, said once a scan.
+void DevicePipeline::count_unplaced_frame(const CameraStream& ref) {
+  stats_.tracking = runtime::TrackingState::kLost;
+  ++pipeline_drops_;
+  if (robot_poses()) ++robot_pose_missing_;
+  if (warned_no_pose_) return;
+  warned_no_pose_ = true;
+  if (!robot_poses())
+    std::printf("pipeline: camera %s gives no known pose (set tracking.poses = icp): frames are not integrated\n",
+                ref.name.c_str());
+  else if (flange_poses_ == nullptr)
+    std::printf("pipeline: tracking.poses = %s but no robot pose source: frames are not integrated\n",
+                config_.poses == CameraPoses::kRobot ? "robot" : "robot+icp");
+  else
+    std::printf("pipeline: no robot pose at the frame's stamp %llu us + robot.latency_us %lld (send CAPTURE / POSE "
+                "updates): such frames are skipped and counted\n",
+                static_cast<unsigned long long>(ref.held->stamp_us), static_cast<long long>(config_.robot_latency_us));
+  std::fflush(stdout);
+}
+
+// A frame the robot has no pose for waits while its stamp (plus the latency offset) is recent: the
+// robot's update for that instant may still be on the way.
+bool DevicePipeline::wait_for_robot_pose(const CameraStream& ref, uint64_t now_us) const {
+  Pose T;
+  if (!robot_poses() || flange_poses_ == nullptr || robot_pose(ref.held->stamp_us, T)) return false;
+  return int64_t(now_us) < int64_t(ref.held->stamp_us) + config_.robot_latency_us + int64_t(kRobotPoseWaitUs);
+}
+
+bool DevicePipeline::robot_pose(uint64_t stamp_us, Pose& T_base_ref) const {
+  const char* mount = "";
+  return flange_poses_ != nullptr && runtime::robot_camera_pose(*flange_poses_, stamp_us, config_.robot_latency_us,
+                                                                flange_to_reference(&mount), T_base_ref);
+}
+
+// T_flange_ref = T_flange_rig * T_rig_ref: the hand-eye mounting (calibration store) and the
+// reference camera's mounting on the rig (calibration store, else the sim mounting with
+// tracking.sim_truth, else the identity: the rig is the reference camera).
+Pose DevicePipeline::flange_to_reference(const char** mount) const {
+  const CameraStream& ref = cams_[order_[0]];
+  Pose T_rig_ref = Pose::identity();
+  *mount = "identity";
+  if (const runtime::SensorPair* p = runtime::calib_find_pair(calib_, "rig", ref.name.c_str())) {
+    T_rig_ref = to_pose(p->T_from_to);
+    *mount = "calibration store";
+  } else if (const hal::TruthSource* truth = sim_truth(ref.index)) {
+    if (truth->mounting(T_rig_ref)) *mount = "sim mounting";
+  }
+  return to_pose(calib_.T_flange_rig) * T_rig_ref;
+}
+
+// T_world_ref = T_world_flange * T_flange_rig * T_rig_ref: the robot's flange pose (the flange
+// pose source at the frame's stamp, else the simulated robot's with tracking.sim_truth), the
+// hand-eye mounting and the reference camera's mounting on the rig.
+Pose DevicePipeline::tracking_start_pose(uint32_t sequence, uint64_t stamp_us) {
   const CameraStream& ref = cams_[order_[0]];
   const hal::TruthSource* truth = sim_truth(ref.index);
   Pose T_world_flange;
-  if (truth == nullptr || !truth->flange_pose_of(sequence, T_world_flange)) {
+  const bool from_robot =
+      stamp_us != 0 && flange_poses_ != nullptr &&
+      runtime::robot_camera_pose(*flange_poses_, stamp_us, config_.robot_latency_us, Pose::identity(), T_world_flange);
+  if (!from_robot && (truth == nullptr || !truth->flange_pose_of(sequence, T_world_flange))) {
     std::printf("tracking: no robot pose%s: the map starts at the identity\n",
                 truth == nullptr && devices_.truth(ref.index) != nullptr
                     ? " (the backend's truth may stand in for it with tracking.sim_truth = true)"
                     : "");
     return Pose::identity();
   }
-  Pose T_rig_ref = Pose::identity();
-  const char* mount = "identity";
-  if (const runtime::SensorPair* p = runtime::calib_find_pair(calib_, "rig", ref.name.c_str())) {
-    T_rig_ref = to_pose(p->T_from_to);
-    mount = "calibration store";
-  } else if (truth->mounting(T_rig_ref)) {
-    mount = "sim mounting";
-  }
-  const Pose T = T_world_flange * to_pose(calib_.T_flange_rig) * T_rig_ref;
-  std::printf("tracking: start pose = flange pose (robot) x hand-eye T_flange_rig (calibration) x T_rig_%s (%s): "
+  const char* robot = from_robot ? "robot" : "sim robot";
+  const char* mount = "";
+  const Pose T = T_world_flange * flange_to_reference(&mount);
+  std::printf("tracking: start pose = flange pose (%s) x hand-eye T_flange_rig (calibration) x T_rig_%s (%s): "
               "t %.4f %.4f %.4f\n",
-              ref.name.c_str(), mount, double(T.t.x()), double(T.t.y()), double(T.t.z()));
+              robot, ref.name.c_str(), mount, double(T.t.x()), double(T.t.y()), double(T.t.z()));
   std::fflush(stdout);
   return T;
 }
@@ -659,6 +747,8 @@ void DevicePipeline::run_localization() {
                 unsigned(lost_frames_), double(track_err_m_) * 1e3);
   else if (tracked())
     std::printf("localize: tracking: %u lost frames\n", unsigned(lost_frames_));
+  if (robot_poses())
+    std::printf("localize: %u frames skipped without a robot pose at their stamp\n", unsigned(robot_pose_missing_));
   std::fflush(stdout);
 }
 

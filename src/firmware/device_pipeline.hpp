@@ -19,11 +19,19 @@
 // integrated (integrate_profile) at the pose its axis position gives along the axis the backend
 // reports (HalDevices::scanner_axis), once the reference camera has placed the map.
 //
-// Poses (tracking.poses): "tracked" (default) = the tracking module (ICP against the model
-// raycast at the last good pose, push after 1 cm / 1 degree), starting at the pose composed from
-// the robot's flange pose at the map's first frame, the hand-eye mounting T_flange_rig of the
+// Poses (tracking.poses): "icp" (default; "tracked" is the same) = the tracking module (ICP against
+// the model raycast at the last good pose, push after 1 cm / 1 degree), starting at the pose composed
+// from the robot's flange pose at the map's first frame, the hand-eye mounting T_flange_rig of the
 // calibration store and the reference camera's mounting on the rig T_rig_ref (calibration store,
-// else the identity); without a robot pose (a real device, no robot link yet) the identity.
+// else the identity); without a robot pose (no robot connected) the identity.
+// "robot" = every frame at T_base_flange(frame stamp + robot.latency_us) x T_flange_rig x T_rig_ref,
+// the flange pose interpolated between the robot's pose updates (set_flange_poses: edgefused's robot
+// session), every frame pushed; "robot+icp" = that pose as the prior, ICP against the map raycast
+// there corrects it (Mapper's PoseMode::kPrior). The map and every result are then in the robot's
+// base frame. A reference frame the robot has no pose for yet is held (no newer frame taken) for up
+// to kRobotPoseWaitUs past its stamp plus the latency offset (the robot's update for that instant
+// may still be on the way), then it is skipped and counted (robot_pose_missing(), in the drops;
+// tracking lost, said once a scan).
 // "known" = every frame at the reference camera's true pose from its backend's simulator truth
 // (hal::TruthSource: sim = the simulated rig's motion; replay = the recording's ground truth),
 // every frame pushed; refused at start-up when the reference camera offers no truth (a real
@@ -57,6 +65,7 @@
 #include "edgefuse/runtime/pipeline.hpp"
 #include "edgefuse/io/rig.hpp"
 #include "edgefuse/runtime/calibration.hpp"
+#include "edgefuse/runtime/flange_pose_source.hpp"
 #include "edgefuse/hal/devices/hal_devices.hpp"
 #include "edgefuse/hal/platform/threads/pool_row_runner.hpp"
 #include "edgefuse/hal/platform/threads/background_job.hpp"
@@ -66,6 +75,16 @@ namespace edgefuse::firmware {
 
 struct PairRun;  // one `calib fuse` command while it collects estimates (pair_calibration.cpp)
 
+//! Where the reference camera's poses come from (tracking.poses).
+enum class CameraPoses : uint8_t {
+  kIcp,       //!< "icp" / "tracked": ICP against the map
+  kKnown,     //!< "known": the backend's truth
+  kRobot,     //!< "robot": the robot's flange pose x the hand-eye mounting
+  kRobotIcp,  //!< "robot+icp": that pose corrected by ICP against the map
+};
+//! Parses tracking.poses. \param text the value \param out set on success \return false when unknown
+bool parse_camera_poses(const std::string& text, CameraPoses& out);
+
 struct DevicePipelineConfig {
   std::string board;        //!< board folder name (hal.toml, board.toml)
   std::string replay;       //!< rig set / sequence folder every camera replays ("" : hal.toml's backends)
@@ -74,8 +93,10 @@ struct DevicePipelineConfig {
   float trunc_m = 0.008f;   //!< TSDF truncation
   bool bilateral = false;   //!< bilateral filter on
   float min_score = 0.3f;   //!< localiser's own acceptance (the runtime filters again by its param)
-  bool known_poses = false;    //!< every frame at the reference camera's true pose (its hal::TruthSource;
-                               //!< refused at init without one); else tracked by ICP
+  //! kKnown: every frame at the reference camera's true pose (its hal::TruthSource; refused at init
+  //! without one); kRobot, kRobotIcp: from the robot (set_flange_poses); kIcp: tracked by ICP
+  CameraPoses poses = CameraPoses::kIcp;
+  int64_t robot_latency_us = 0;  //!< robot modes: the flange pose is looked up at the frame's stamp plus this
   bool use_sim_truth = false;  //!< simulator truth stands in for the robot's flange pose, the rig
                                //!< mountings and the tracking error's reference (tracking.sim_truth)
   bool inject_faults = false;  //!< cameras wrapped in FaultCameras (devices().faults(i)): tests
@@ -117,10 +138,21 @@ class DevicePipeline final : public runtime::Pipeline {
 
   //! Frames integrated into the current map.
   uint32_t map_frames() const { return mapper_.map_frames(); }
-  //! Where a tracked map starts: T_world_flange (robot pose at the reference camera's frame
-  //! `sequence`) * T_flange_rig (hand-eye, calibration) * T_rig_ref; the identity without a robot pose.
-  //! \param sequence the first frame's sequence number
-  Pose tracking_start_pose(uint32_t sequence);
+  //! Where a tracked map starts: T_world_flange (robot pose at the reference camera's frame: the
+  //! flange pose source at stamp_us, else with tracking.sim_truth the simulated robot's at `sequence`)
+  //! * T_flange_rig (hand-eye, calibration) * T_rig_ref; the identity without a robot pose.
+  //! \param sequence the first frame's sequence number  \param stamp_us its capture stamp (0: none)
+  Pose tracking_start_pose(uint32_t sequence, uint64_t stamp_us = 0);
+  //! The robot's flange poses (edgefused: its robot session; null: none). Read in step() only, on
+  //! the caller's thread. \param source kept, not owned
+  void set_flange_poses(const runtime::FlangePoseSource* source) { flange_poses_ = source; }
+  //! The reference camera's pose from the robot at capture stamp_us: T_base_flange(stamp_us +
+  //! robot_latency_us) x T_flange_rig x T_rig_ref. \return false without a robot pose at that time
+  bool robot_pose(uint64_t stamp_us, Pose& T_base_ref) const;
+  //! Reference frames skipped because the robot had no pose at their stamp (robot modes).
+  uint32_t robot_pose_missing() const { return robot_pose_missing_; }
+  //! How long a reference frame waits for the robot's pose at its stamp before it is skipped.
+  static constexpr uint64_t kRobotPoseWaitUs = 200000;
   //! The board's devices (with inject_faults, tests inject faults through devices().faults(i)).
   hal::HalDevices& devices() { return devices_; }
   //! Camera i's stream (counters, extrinsics); i < device_count().
@@ -158,7 +190,14 @@ class DevicePipeline final : public runtime::Pipeline {
   void update_mounts();
   void update_drops();
   void run_localization();
-  bool tracked() const { return !config_.known_poses; }
+  //! The reference's pose comes from ICP (icp, robot+icp): the tracker's state is the tracking's.
+  bool icp_poses() const { return config_.poses == CameraPoses::kIcp || config_.poses == CameraPoses::kRobotIcp; }
+  bool robot_poses() const { return config_.poses == CameraPoses::kRobot || config_.poses == CameraPoses::kRobotIcp; }
+  bool tracked() const { return config_.poses != CameraPoses::kKnown; }
+  //! T_flange_ref = T_flange_rig (calibration store) x T_rig_ref. \param mount names T_rig_ref's source
+  Pose flange_to_reference(const char** mount) const;
+  bool wait_for_robot_pose(const CameraStream& ref, uint64_t now_us) const;
+  void count_unplaced_frame(const CameraStream& ref);
   //! Camera `index`'s simulator truth when tracking.sim_truth allows it, else null.
   const hal::TruthSource* sim_truth(int index) const {
     return config_.use_sim_truth ? devices_.truth(index) : nullptr;
@@ -193,6 +232,8 @@ class DevicePipeline final : public runtime::Pipeline {
   uint64_t last_frame_us_ = 0;
   runtime::PipelineStats stats_;
   bool warned_no_pose_ = false;
+  const runtime::FlangePoseSource* flange_poses_ = nullptr;
+  uint32_t robot_pose_missing_ = 0;
 
   // the localisation, on its own thread
   hal::BackgroundJob localization_;

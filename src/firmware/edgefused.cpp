@@ -229,8 +229,9 @@ bool check_combinations(std::string& err) {
     return false;
   }
   const std::string poses = g_params.get_text(runtime::kTrackingPoses);
-  if (poses != "known" && poses != "tracked") {
-    err = "tracking.poses = '" + poses + "' is not one of known|tracked";
+  CameraPoses mode;
+  if (!parse_camera_poses(poses, mode)) {
+    err = "tracking.poses = '" + poses + "' is not one of robot|robot+icp|icp|known (tracked = icp)";
     return false;
   }
   if (!link::parse_units(g_params.get_text(runtime::kRobotUnits), g_robot.default_format.units)) {
@@ -255,7 +256,8 @@ bool start_device_pipeline(const std::string& board, std::string& err) {
   fc.voxel_m = float(g_params.get_number(runtime::kTsdfVoxelM));
   fc.trunc_m = float(g_params.get_number(runtime::kTsdfTruncM));
   fc.bilateral = g_params.get_bool(runtime::kFiltersBilateral);
-  fc.known_poses = poses == "known";
+  parse_camera_poses(poses, fc.poses);  // checked by check_combinations
+  fc.robot_latency_us = g_params.get_int(runtime::kRobotLatencyUs);
   fc.use_sim_truth = g_params.get_bool(runtime::kTrackingSimTruth);
   fc.push_every_frame = g_params.get_bool(runtime::kTrackingPushEveryFrame);
   fc.fuse = g_params.get_text(runtime::kSensorsFuse);
@@ -380,6 +382,8 @@ int serve(runtime::Pipeline& pipeline) {
   static robot::RobotSession session(rt, pipeline, g_robot);
   rt.set_result_listener(&session);
   g_robot.session = &session;
+  // The robot's flange poses feed the device pipeline's robot modes (both run on this thread).
+  if (&pipeline == &g_devices) g_devices.set_flange_poses(&session);
   {
     // Calibration: the newest valid slot, a corrupt one reported.
     runtime::CalibrationData d;

@@ -41,9 +41,11 @@ const ParamDef kParamDefs[kParamCount] = {
      "a PLY model or a folder of them ('' : a replayed rig set's models, else model-free segments)"},
     {"filters.bilateral", ParamType::kBool, 0, 1, "false", false,
      "bilateral depth filter before integration (the sensor kind's masks always run)"},
-    {"tracking.poses", ParamType::kString, 0, kParamTextMax, "tracked", false,
-     "'tracked' (ICP against the raycast model) or 'known' (every frame at the sim / replay backend's true "
-     "pose; refused when the reference camera has none)"},
+    {"tracking.poses", ParamType::kString, 0, kParamTextMax, "icp", false,
+     "'icp' (ICP against the raycast model; 'tracked' is the same), 'robot' (the robot's flange pose at the "
+     "frame's stamp x the hand-eye mounting), 'robot+icp' (that pose as the prior, ICP against the map "
+     "corrects it) or 'known' (every frame at the sim / replay backend's true pose; refused when the "
+     "reference camera has none)"},
     {"tracking.push_every_frame", ParamType::kBool, 0, 1, "false", false,
      "tracked: integrate every frame (else when the sensor moved 1 cm or 1 degree)"},
     {"tracking.sim_truth", ParamType::kBool, 0, 1, "false", false,
@@ -63,6 +65,9 @@ const ParamDef kParamDefs[kParamCount] = {
      "text profile: translations in m or mm (a connection may change it: UNITS)"},
     {"robot.rotation", ParamType::kString, 0, kParamTextMax, "xyzw", false,
      "text profile: rotations as xyzw|wxyz|axisangle|kuka_abc (a connection may change it: ROTATION)"},
+    {"robot.latency_us", ParamType::kInt, -1000000, 1000000, "0", false,
+     "tracking.poses = robot | robot+icp: how much later the robot stamps its flange pose than the moment it "
+     "describes (the pose is looked up at the frame's stamp plus this)"},
 };
 
 namespace {

@@ -87,7 +87,7 @@ bool localize(firmware::DevicePipeline& p, runtime::LocalizationOutcome& r) {
 // Tracked: from the sim robot's flange pose (simulator truth allowed), as edgefused on host-sim.
 void run_pipeline(bool tracked) {
   firmware::DevicePipelineConfig c = sim_rig_config();
-  c.known_poses = !tracked;
+  c.poses = tracked ? firmware::CameraPoses::kIcp : firmware::CameraPoses::kKnown;
   c.use_sim_truth = tracked;
   c.push_every_frame = true;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
@@ -167,7 +167,7 @@ bool wait_state(firmware::DevicePipeline& p, hal::DeviceState s) {
 std::unique_ptr<firmware::DevicePipeline> fusing_pipeline(const char* fuse) {
   firmware::DevicePipelineConfig c = sim_rig_config();
   c.fuse = fuse;
-  c.known_poses = true;
+  c.poses = firmware::CameraPoses::kKnown;
   c.use_sim_truth = true;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
@@ -181,7 +181,7 @@ std::unique_ptr<firmware::DevicePipeline> fusing_pipeline(const char* fuse) {
 // meanwhile and the map is kept (frames go on adding to it afterwards).
 TEST(DevicePipeline, CameraFaultsKeepTheMap) {
   firmware::DevicePipelineConfig c = sim_rig_config();
-  c.known_poses = true;
+  c.poses = firmware::CameraPoses::kKnown;
   c.inject_faults = true;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
@@ -438,7 +438,7 @@ TEST(DevicePipeline, KnownPosesWithoutTruthRefused) {
     fs::create_symlink(fs::path(rig) / "xtion" / e, dir / "xtion" / e);
   firmware::DevicePipelineConfig c = sim_rig_config();
   c.replay = dir.string();
-  c.known_poses = true;
+  c.poses = firmware::CameraPoses::kKnown;
   std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
   std::string err;
   CHECK_FALSE(p->init(c, err));
@@ -461,4 +461,87 @@ TEST(DevicePipeline, UnknownFuseSensorRefused) {
   std::unique_ptr<firmware::DevicePipeline> q(new firmware::DevicePipeline);
   CHECK_FALSE(q->init(c, err));
   CHECK_TRUE_TEXT(err.find("the first sensor is the reference and must be a camera") != std::string::npos, err.c_str());
+}
+
+namespace {
+// A robot that reports the sim rig's flange exactly at the instant of the reference camera's held
+// frame (the sim robot's truth) and knows no other instant: the device pipeline's wiring of the
+// robot modes, without the stream's interpolation (tests/test_pipeline_robot_poses.cpp measures that).
+class FrameInstantRobot final : public runtime::FlangePoseSource {
+ public:
+  FrameInstantRobot(const firmware::CameraStream& ref, const hal::TruthSource& truth) : ref_(ref), truth_(truth) {}
+  bool flange_pose_at(uint64_t stamp_us, Pose& T_base_flange) const override {
+    const hal::DepthFrame* f = ref_.held;
+    return f != nullptr && f->stamp_us == stamp_us && truth_.flange_pose_of(f->sequence, T_base_flange);
+  }
+
+ private:
+  const firmware::CameraStream& ref_;
+  const hal::TruthSource& truth_;
+};
+
+// A robot that has sent no pose yet.
+class SilentRobot final : public runtime::FlangePoseSource {
+ public:
+  bool flange_pose_at(uint64_t, Pose&) const override { return false; }
+};
+}  // namespace
+
+// tracking.poses = robot | robot+icp: the reference camera's pose is the robot's flange pose at the
+// frame's stamp times the hand-eye mounting (here the identity, the sim rig's flange is the xtion):
+// robot places the frames at the truth, robot+icp keeps them there (ICP from exact priors).
+TEST(DevicePipeline, RobotPosesPlaceTheFrames) {
+  for (const firmware::CameraPoses mode : {firmware::CameraPoses::kRobot, firmware::CameraPoses::kRobotIcp}) {
+    firmware::DevicePipelineConfig c = sim_rig_config();
+    c.poses = mode;
+    c.push_every_frame = true;
+    std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
+    std::string err;
+    CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+    const hal::TruthSource* truth = p->devices().truth(0);
+    CHECK_TRUE(truth != nullptr);
+    const FrameInstantRobot robot(p->camera_stream(0), *truth);
+    p->set_flange_poses(&robot);
+    const char* why = "";
+    CHECK_TRUE(p->start_mapping(&why));
+    CHECK_TRUE(step_frames(*p, 4));
+    CHECK_FALSE(p->map_empty());
+    CHECK_TRUE(runtime::TrackingState::kOk == p->stats().tracking);
+    const hal::DepthFrame* last = p->camera_stream(0).held;
+    Pose T_true;
+    CHECK_TRUE(last != nullptr && truth->pose_of(last->sequence, T_true));
+    CHECK_EQUAL(last->stamp_us, p->reference_stamp_us());
+    float dt = (p->mapper().reference().last().t - T_true.t).norm();
+    // robot: the given pose itself; robot+icp: the given pose corrected by ICP on the sim rig's noisy
+    // depth against a map of 2 mm (4 mm on am335x) voxels: within a voxel.
+    CHECK_TRUE_TEXT(dt < (mode == firmware::CameraPoses::kRobot ? 1e-5f : c.voxel_m), std::to_string(dt).c_str());
+    CHECK_EQUAL(0u, p->robot_pose_missing());
+    p->stop_mapping();
+    p->shutdown();
+  }
+}
+
+// A robot mode without a robot pose at the frames' stamps: each frame waits for it up to
+// kRobotPoseWaitUs, then it is skipped and counted (in the drops too); tracking is lost, the map empty.
+TEST(DevicePipeline, FramesWithoutARobotPoseAreSkippedAndCounted) {
+  firmware::DevicePipelineConfig c = sim_rig_config();
+  c.poses = firmware::CameraPoses::kRobotIcp;
+  std::unique_ptr<firmware::DevicePipeline> p(new firmware::DevicePipeline);
+  std::string err;
+  CHECK_TRUE_TEXT(p->init(c, err), err.c_str());
+  const SilentRobot robot;
+  p->set_flange_poses(&robot);
+  const char* why = "";
+  CHECK_TRUE(p->start_mapping(&why));
+  const uint64_t end = now_us() + 20000000u;
+  while (p->robot_pose_missing() < 3 && now_us() < end) {
+    p->step(now_us());
+    sleep_ms(2);
+  }
+  CHECK_TRUE(p->robot_pose_missing() >= 3);
+  CHECK_TRUE(p->stats().drops >= p->robot_pose_missing());
+  CHECK_TRUE(runtime::TrackingState::kLost == p->stats().tracking);
+  CHECK_TRUE(p->map_empty());
+  p->stop_mapping();
+  p->shutdown();
 }

@@ -20,6 +20,7 @@
 #include "edgefuse/fusion/hand_eye.hpp"
 #include "edgefuse/pipeline/pose_history.hpp"
 #include "edgefuse/robot/robot_types.hpp"
+#include "edgefuse/runtime/flange_pose_source.hpp"
 #include "edgefuse/runtime/runtime.hpp"
 
 namespace edgefuse::robot {
@@ -33,7 +34,7 @@ struct SessionCounters {
   uint32_t replies = 0;           //!< replies sent
 };
 
-class RobotSession final : public runtime::ResultListener {
+class RobotSession final : public runtime::ResultListener, public runtime::FlangePoseSource {
  public:
   //! Waiting detect requests at most (one per client fits: 8 TCP + serial + 8 text clients).
   static constexpr int kPendingMax = 24;
@@ -56,6 +57,10 @@ class RobotSession final : public runtime::ResultListener {
   void result_sent(const runtime::ResultInfo& r) override;
 
   const StampedPoseHistory& flange_poses() const { return poses_; }
+  //! runtime::FlangePoseSource: flange_poses() at stamp_us (the pipeline's robot poses).
+  bool flange_pose_at(uint64_t stamp_us, Pose& T_base_flange) const override {
+    return poses_.pose_at(stamp_us, T_base_flange);
+  }
   const SessionCounters& counters() const { return counters_; }
   int objects_left() const;                 //!< objects NEXT would still offer
   int stations() const { return station_count_; }  //!< hand-eye stations held

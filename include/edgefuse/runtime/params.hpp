@@ -57,6 +57,7 @@ enum ParamId : int {
   kRobotTextPort,
   kRobotUnits,
   kRobotRotation,
+  kRobotLatencyUs,
   kParamCount
 };
 
