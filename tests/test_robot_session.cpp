@@ -7,6 +7,7 @@
 
 #include "alloc_counter.hpp"
 #include "edgefuse/robot/robot_session.hpp"
+#include "fake_pipeline.hpp"
 
 #include <CppUTest/TestHarness.h>
 
@@ -15,29 +16,13 @@ using namespace edgefuse::robot;
 
 namespace {
 
-class FakePipeline : public runtime::Pipeline {
+class FakePipeline : public edgefuse_test::FakePipeline {
  public:
-  bool mapping = false, localizing = false, fail_next = false;
-  uint64_t now = 0, done_at = 0;
-  uint32_t frames = 0;
+  bool fail_next = false;
   int objects = 2;
   bool have_rig_pose = false;
   Pose rig_pose_now;
-  bool start_mapping(const char**) override { return mapping = true; }
-  void stop_mapping() override { mapping = false; }
-  void reset_map() override { frames = 0; }
-  void step(uint64_t t) override {
-    now = t;
-    if (mapping) ++frames;
-  }
-  bool start_localization(uint64_t t, const char**) override {
-    localizing = true;
-    done_at = t + 50000;
-    return true;
-  }
-  bool poll_localization(runtime::LocalizationOutcome& out) override {
-    if (!localizing || now < done_at) return false;
-    localizing = false;
+  void fill_result(runtime::LocalizationOutcome& out) override {
     out.failed = fail_next;
     for (int i = 0; i < objects; ++i) {
       runtime::ObjectResult o;
@@ -46,7 +31,6 @@ class FakePipeline : public runtime::Pipeline {
       o.T_world_object = Pose::from_tq(0.4f + 0.01f * float(i), 0, 0.03f, 0, 0, 0, 1);
       out.add(o);
     }
-    return true;
   }
   bool calibrate_pair(const char*, const char*, runtime::PairCalibrationReport&, const char** why) override {
     *why = "no";
@@ -58,12 +42,6 @@ class FakePipeline : public runtime::Pipeline {
     return have_rig_pose;
   }
   runtime::PipelineStats stats() const override { return {}; }
-  bool map_empty() const override { return frames == 0; }
-  int device_count() const override { return 1; }
-  const char* device_name(int) const override { return "xtion"; }
-  const char* device_state(int) const override { return "ok"; }
-  int model_count() const override { return 0; }
-  const char* model_name(int) const override { return ""; }
 };
 
 class NullPublisher : public runtime::Publisher {

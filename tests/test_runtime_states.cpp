@@ -8,6 +8,7 @@
 #include "alloc_counter.hpp"
 #include "edgefuse/link/publisher.hpp"
 #include "edgefuse/runtime/runtime.hpp"
+#include "fake_pipeline.hpp"
 
 #include <CppUTest/TestHarness.h>
 
@@ -16,27 +17,10 @@ using namespace edgefuse::runtime;
 
 namespace {
 
-class FakePipeline : public Pipeline {
+class FakePipeline : public edgefuse_test::FakePipeline {
  public:
-  bool mapping = false;
-  bool localizing = false;
-  uint64_t done_at = 0, now = 0, still_since = 0;
-  uint32_t frames = 0;
-  bool start_mapping(const char**) override { return mapping = true; }
-  void stop_mapping() override { mapping = false; }
-  void reset_map() override { frames = 0; }
-  void step(uint64_t t) override {
-    now = t;
-    if (mapping) ++frames;
-  }
-  bool start_localization(uint64_t t, const char**) override {
-    localizing = true;
-    done_at = t + 50000;
-    return true;
-  }
-  bool poll_localization(LocalizationOutcome& out) override {
-    if (!localizing || now < done_at) return false;
-    localizing = false;
+  uint64_t still_since = 0;
+  void fill_result(LocalizationOutcome& out) override {
     out.stamp_us = now - 1000;
     ObjectResult o;
     o.id = 1;
@@ -46,7 +30,6 @@ class FakePipeline : public Pipeline {
     o.id = 2;
     o.score = 0.3f;
     out.add(o);
-    return true;
   }
   // xtion -> tof "calibrates" to a fixed mounting; anything else is refused.
   bool calibrate_pair(const char* from, const char* to, PairCalibrationReport& out, const char** why) override {
@@ -65,12 +48,6 @@ class FakePipeline : public Pipeline {
     s.still_since_us = still_since;
     return s;
   }
-  bool map_empty() const override { return frames == 0; }
-  int device_count() const override { return 1; }
-  const char* device_name(int) const override { return "xtion"; }
-  const char* device_state(int) const override { return "ok"; }
-  int model_count() const override { return 0; }
-  const char* model_name(int) const override { return ""; }
 };
 
 class FakeStorage : public CalibrationStorage {
