@@ -197,8 +197,9 @@ def fill(template, units, rotation):
     values = flange_values(units, rotation, template)
 
     head, _, rest = template.partition(" ")
-    if head == "PICKED":
-        return "PICKED OK"  # the program sends OK or FAILED: the test picks every object
+    if head == "PICKED":  # the program sends OK or FAILED: every third pick fails here
+        fill.picks = getattr(fill, "picks", 0) + 1
+        return "PICKED FAILED" if fill.picks % 3 == 0 else "PICKED OK"
     if head not in ("CAPTURE", "POSE", "DETECT", "HANDEYE"):
         return template  # UNITS m, ROTATION axisangle, NEXT, ...: as written
     return head + (" " + re.sub(r"\b[a-z][a-z0-9]*\b", lambda m: values[m.group(0)], rest) if rest else "")
@@ -321,7 +322,7 @@ class Run:
             check(len(self.objects) == self.detected,
                   "NO_OBJECTS after the %d objects DETECT counted (%d offered)" % (self.detected or 0, len(self.objects)))
         elif verb == "PICKED":
-            check(got.get("left") == (self.detected or 0) - len(self.objects), "PICKED OK -> OK left: " + text)
+            check(got.get("left") == (self.detected or 0) - len(self.objects), "%s -> OK left: %s" % (sent, text))
 
 
 def reference_objects(conn):
