@@ -4,8 +4,9 @@ edgefused: host-sim replaying the bin_rig_a rig set at its true poses (tracking.
 exchange runs on its own edgefused: the lines the program sends (its flange pose filled in, in the
 connection's units and rotation convention), the scan (the test waits on the console until every
 frame of the recording was integrated or dropped), then DETECT and NEXT until NO_OBJECTS with
-PICKED. Every reply must match one of the forms the program parses, word for word (field counts,
-integers where it reads integers). Then a second connection in the default convention (m, xyzw)
+PICKED (every third pick FAILED). Every reply must match one of the forms the program parses, word
+for word (field counts, integers where it reads integers). Before CAPTURE (no map yet) its DETECT
+must come back in its ERR form and its NEXT as NO_OBJECTS. Then a second connection in the default convention (m, xyzw)
 detects again on the same map: every object the program was offered must come back in that
 convention at the same pose (the localiser is deterministic on one map), which checks units and
 rotation convention; and at least three of them must lie within 10 mm of objects.txt's, which
@@ -345,6 +346,30 @@ def reference_objects(conn):
     return out
 
 
+def error_branch(name, steps, conn):
+    """Before CAPTURE (no map): the program's DETECT must be answered in its ERR form and its NEXT
+    with NO_OBJECTS, both among the forms it parses."""
+    forms = {}
+    flat = []
+    for st in steps:
+        flat += [st] + (st[2] if st[0] == "loop" else [])
+    for a, b in zip(flat, flat[1:]):
+        if a[0] == "send" and b[0] == "reply":
+            forms.setdefault(a[1].split()[0], (a[1], b[1]))
+    for verb in ("UNITS", "ROTATION"):
+        if verb in forms:
+            words = forms[verb][0].split()
+            conn.ask(forms[verb][0])
+            setattr(conn, "units" if verb == "UNITS" else "rotation", words[1])
+    for verb, want in (("DETECT", "ERR"), ("NEXT", "NO_OBJECTS")):
+        template, replies = forms[verb]
+        sent = fill(template, conn.units, conn.rotation)
+        r = conn.ask(sent)
+        form = next((f for f in replies if matches(r.split(), f) is not None), None)
+        check(form is not None and form[0] == want,
+              "%s: before CAPTURE, %r -> %r, the program's %s form" % (name, sent, r, want))
+
+
 def truth_positions():
     pos = []
     for line in open(os.path.join(RIG, "objects.txt")):
@@ -373,6 +398,7 @@ def run_exchange(path):
         return
     con = open_raw(info["console"])
     port = int(info["robot"].rsplit(":", 1)[1])
+    error_branch(name, steps, Conn(port))
     run = Run(Conn(port), con)
     try:
         run.steps(steps)
