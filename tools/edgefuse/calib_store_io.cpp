@@ -52,4 +52,32 @@ bool store_calibrated_pair(const std::string& dir, const std::string& from, cons
   return true;
 }
 
+bool load_flange_mounting(const std::string& dir, const std::string& sensor, Pose& T_flange_sensor, std::string& what,
+                          std::string& err) {
+  hal::CalibFileStore store(dir);
+  runtime::CalibrationData data;
+  hal::CalibLoadReport rep;
+  if (!store.load(data, rep)) {
+    err = "calibration store " + dir + ": no valid slot (" + rep.message + ")";
+    return false;
+  }
+  const runtime::CalibPose unset;
+  bool same = true;
+  for (int k = 0; k < 7; ++k) same = same && data.T_flange_rig.tq[k] == unset.tq[k];
+  if (same) {
+    err = "calibration store " + dir + ": no hand-eye calibration stored (T_flange_rig is the identity default)";
+    return false;
+  }
+  const auto to_pose = [](const runtime::CalibPose& p) {
+    return Pose::from_tq(p.tq[0], p.tq[1], p.tq[2], p.tq[3], p.tq[4], p.tq[5], p.tq[6]);
+  };
+  Pose T_rig_sensor = Pose::identity();
+  const runtime::SensorPair* pair = runtime::calib_find_pair(data, "rig", sensor.c_str());
+  if (pair != nullptr) T_rig_sensor = to_pose(pair->T_from_to);
+  T_flange_sensor = to_pose(data.T_flange_rig) * T_rig_sensor;
+  what = "calibration store " + store.slot_path(rep.slot) + " (seq " + std::to_string(rep.seq) + "): T_flange_rig" +
+         (pair != nullptr ? " x T_rig_" + sensor : " (the rig is " + sensor + ")");
+  return true;
+}
+
 }  // namespace edgefuse::cli

@@ -18,4 +18,12 @@ namespace edgefuse::cli {
 bool store_calibrated_pair(const std::string& dir, const std::string& from, const std::string& to,
                            const Pose& T_from_to, std::string& message, std::string& err);
 
+//! The sensor's mounting on the robot flange from the newest valid slot of the store in `dir`, as
+//! edgefused composes it: T_flange_sensor = T_flange_rig (hand-eye, HANDEYE SAVE) * T_rig_sensor
+//! (the pair ("rig", sensor) when stored, else the identity: the rig is that sensor).
+//! \param what one line: the slot read and where each part came from
+//! \return false (err set) when no slot is valid or no hand-eye is stored (the identity default)
+bool load_flange_mounting(const std::string& dir, const std::string& sensor, Pose& T_flange_sensor, std::string& what,
+                          std::string& err);
+
 }  // namespace edgefuse::cli

@@ -5,9 +5,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <sys/stat.h>
 #include <vector>
@@ -26,6 +30,9 @@
 #include "edgefuse/tsdf/extract.hpp"
 #include "edgefuse/hal/platform/threads/pool_parallel_for.hpp"
 #include "edgefuse/io/localize_io.hpp"
+#include "edgefuse/io/trajectory.hpp"
+#include "calib_store_io.hpp"
+#include "edgefuse/hal/platform/config/calib_file_store.hpp"
 #include "rig_fusion.hpp"
 
 namespace edgefuse::cli {
@@ -58,6 +65,14 @@ const char* kUsage =
     "  trust, line scanners) into the one space that is localised in; the viewpoint is the first colour camera's;\n"
     "  with [--no-filter] [--no-trust] [--min-weight W] (as for `edgefuse fuse`); every fused crossing is kept\n"
     "  (no support rule: it was measured to cost the localiser).\n"
+    "  --robot FILE --hand-eye FILE|calibrated [--store DIR]: the camera poses from the robot instead of the set's\n"
+    "  ground truth: T_base_flange at each frame's stamp (FILE: TUM format `timestamp tx ty tz qx qy qz qw`,\n"
+    "  flange-to-base, as `edgefuse handeye --robot` reads; nearest pose within 0.02 s, frames without one are\n"
+    "  skipped) times the mounting T_flange_<sensor>, so the objects come out in the robot's base frame.\n"
+    "  --hand-eye: a pose file (last line `[T_flange_<sensor>] tx ty tz qx qy qz qw`, as `edgefuse handeye --out`\n"
+    "  appends it), a calibration store (its folder or a slot file), or `calibrated`: the store in --store DIR\n"
+    "  (default edgefused-state, edgefused's calib.dir), composed as edgefused does: T_flange_rig (HANDEYE SAVE)\n"
+    "  x T_rig_<sensor> (the stored pair, else the identity). Sequences and rig sets only (not with --sensors).\n"
     "  Poses: one line per object `id tx ty tz qx qy qz qw score model` (T_world_object; id = picking rank).\n"
     "  --check-truth (rig sets): also verifies every true object pose of objects.txt (at the truth and after ICP\n"
     "  from it) as a hypothesis would be, to show why a known object is missed.\n"
@@ -67,6 +82,13 @@ double cpu_ms(clockid_t clock = CLOCK_THREAD_CPUTIME_ID) {
   timespec ts;
   clock_gettime(clock, &ts);
   return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
+}
+
+std::string pose_text(const Pose& T) {
+  const Eigen::Quaternionf q = T.quaternion();
+  char b[160];
+  std::snprintf(b, sizeof(b), "%.6f %.6f %.6f %.7f %.7f %.7f %.7f", T.t.x(), T.t.y(), T.t.z(), q.x(), q.y(), q.z(), q.w());
+  return b;
 }
 
 bool is_dir(const std::string& p) {
@@ -147,7 +169,7 @@ bool parse_options(int argc, char** argv, LocalizeOptions& o, Failure& f) {
                     {"max", "out", "sensor", "sensors", "frames", "voxel", "volume", "threads", "min-score",
                      "scene-out", "min-weight", "icp-iterations", "max-incidence", "bin", "config", "seg-smooth",
                      "seg-concave", "seg-radius", "seg-colour", "seg-crease", "seg-crease-radius",
-                     "seg-crease-concave", "seg-crease-pairs", "seg-crease-share"},
+                     "seg-crease-concave", "seg-crease-pairs", "seg-crease-share", "robot", "hand-eye", "store"},
                     {"segments", "seg-keep-small", "no-walls", "no-filter", "no-trust", "check-truth", "track",
                      "push-every-frame", "no-rest-poses"},
                     err) ||
@@ -166,6 +188,15 @@ bool parse_options(int argc, char** argv, LocalizeOptions& o, Failure& f) {
     return fail(f, std::string("give at least one --model FILE (or --segments)\n") + kUsage, 2);
   if (o.args.has("sensors") && o.args.has("sensor"))
     return fail(f, std::string("give --sensor or --sensors, not both\n") + kUsage, 2);
+  if (o.args.has("robot") != o.args.has("hand-eye"))
+    return fail(f, std::string("--robot FILE and --hand-eye FILE|calibrated go together\n") + kUsage, 2);
+  if (o.args.has("robot") && (o.args.has("sensors") || !is_dir(o.input)))
+    return fail(f, std::string("--robot: a depth sequence or rig set folder, not --sensors or a cloud\n") + kUsage, 2);
+  if (o.args.has("robot") && o.args.has("check-truth"))
+    return fail(f, std::string("--check-truth compares with objects.txt in the set's world frame, not with --robot\n") +
+                       kUsage, 2);
+  if (o.args.has("store") && o.args.get("hand-eye") != "calibrated")
+    return fail(f, std::string("--store DIR goes with --hand-eye calibrated\n") + kUsage, 2);
   const BoardCapacities& board = build_board();
   hal::BoardDefaults defaults;
   if (!hal::read_board_defaults(board.name, defaults, err)) return fail(f, err);
@@ -279,6 +310,104 @@ bool fuse_rig_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Failure
   return true;
 }
 
+// --hand-eye FILE: the last `[T_flange_<sensor>] tx ty tz qx qy qz qw` line of a pose file.
+bool read_mounting_file(const std::string& path, const std::string& sensor, Pose& T, std::string& err) {
+  std::ifstream in(path);
+  if (!in) {
+    err = "--hand-eye " + path + ": cannot read it";
+    return false;
+  }
+  std::string line, name, found_name;
+  bool found = false;
+  int n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    const std::size_t c = line.find_first_not_of(" \t\r");
+    if (c == std::string::npos || line[c] == '#') continue;
+    std::istringstream ls(line);
+    std::vector<std::string> w;
+    for (std::string x; ls >> x;) w.push_back(x);
+    name.clear();
+    if (!w.empty() && (std::isalpha(static_cast<unsigned char>(w[0][0])) || w[0][0] == '_')) {
+      name = w[0];
+      w.erase(w.begin());
+    }
+    double v[7];
+    bool ok = w.size() == 7;
+    for (std::size_t k = 0; ok && k < 7; ++k) {
+      char* end = nullptr;
+      v[k] = std::strtod(w[k].c_str(), &end);
+      ok = end != w[k].c_str() && *end == '\0' && std::isfinite(v[k]);
+    }
+    const double qn = ok ? std::sqrt(v[3] * v[3] + v[4] * v[4] + v[5] * v[5] + v[6] * v[6]) : 0.0;
+    if (!ok || std::fabs(qn - 1.0) > 0.01) {
+      err = "--hand-eye " + path + ":" + std::to_string(n) +
+            ": expected `[T_flange_<sensor>] tx ty tz qx qy qz qw` (metres, unit quaternion)";
+      return false;
+    }
+    T = Pose::from_tq(float(v[0]), float(v[1]), float(v[2]), float(v[3] / qn), float(v[4] / qn), float(v[5] / qn),
+                      float(v[6] / qn));
+    found = true;
+    found_name = name;
+  }
+  if (!found) {
+    err = "--hand-eye " + path + ": no pose line";
+    return false;
+  }
+  if (!found_name.empty() && found_name != "T_flange_" + sensor) {
+    err = "--hand-eye " + path + ": the mounting is " + found_name + ", the sequence's sensor is " + sensor;
+    return false;
+  }
+  return true;
+}
+
+// --robot FILE --hand-eye ...: every frame's pose becomes T_base_flange(stamp) * T_flange_<sensor>;
+// frames without a flange pose within 0.02 s are dropped (named in the count printed).
+bool apply_robot_poses(const LocalizeOptions& o, io::DepthSequence& seq, Failure& f) {
+  std::string err, what;
+  const std::string spec = o.args.get("hand-eye");
+  Pose T_flange_cam;
+  std::string store_dir;
+  if (spec == "calibrated") {
+    store_dir = o.args.get("store", "edgefused-state");
+  } else if (is_dir(spec)) {
+    store_dir = spec;
+  } else {
+    const std::size_t slash = spec.find_last_of('/');
+    const std::string parent = slash == std::string::npos ? "." : spec.substr(0, slash);
+    hal::CalibFileStore probe(parent);
+    if (spec == probe.slot_path(0) || spec == probe.slot_path(1) ||
+        (slash == std::string::npos && (parent + "/" + spec == probe.slot_path(0) || parent + "/" + spec == probe.slot_path(1))))
+      store_dir = parent;
+  }
+  if (!store_dir.empty()) {
+    if (!load_flange_mounting(store_dir, seq.sensor_name, T_flange_cam, what, err)) return fail(f, "--hand-eye: " + err);
+  } else {
+    if (!read_mounting_file(spec, seq.sensor_name, T_flange_cam, err)) return fail(f, err);
+    what = spec;
+  }
+  std::vector<io::StampedPose> flange;
+  if (!io::read_tum_trajectory(o.args.get("robot"), flange, err)) return fail(f, "--robot: " + err);
+  std::vector<io::FrameRef> kept;
+  for (const io::FrameRef& fr : seq.frames) {
+    const io::StampedPose* p = io::find_nearest(flange, fr.stamp_s, 0.02);
+    if (p == nullptr) continue;
+    io::FrameRef k = fr;
+    k.has_pose = true;
+    k.T_world_cam = p->T * T_flange_cam;
+    kept.push_back(k);
+  }
+  const std::size_t dropped = seq.frames.size() - kept.size();
+  seq.frames.swap(kept);
+  if (seq.frames.empty())
+    return fail(f, "--robot " + o.args.get("robot") + ": no flange pose within 0.02 s of a frame of " + seq.root);
+  std::printf("poses: robot %s (T_base_flange) x T_flange_%s %s from %s; %zu frames, %zu without a flange pose "
+              "skipped; poses in the robot's base frame\n",
+              o.args.get("robot").c_str(), seq.sensor_name.c_str(), pose_text(T_flange_cam).c_str(), what.c_str(),
+              seq.frames.size(), dropped);
+  return true;
+}
+
 // A depth sequence (or a single frame) fused through the pipeline's Mapper: at its ground-truth
 // poses as recorded (no pre-filters, no colour), or tracked (--track, as `edgefuse track`).
 bool fuse_sequence_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Failure& f) {
@@ -286,6 +415,7 @@ bool fuse_sequence_scene(const LocalizeOptions& o, Localizer& loc, Scene& sc, Fa
   std::string err;
   io::DepthSequence seq;
   if (!io::open_depth_sequence(o.input, o.args.get("sensor"), seq, err)) return fail(f, err);
+  if (o.args.has("robot") && !apply_robot_poses(o, seq, f)) return false;
   const std::size_t frame_count = std::min<std::size_t>(seq.frames.size(), std::size_t(o.frames_max));
   if (frame_count == 0) return fail(f, o.input + " has no frames");
   const bool single = seq.frames.size() == 1 && !seq.frames[0].has_pose;
