@@ -1,0 +1,101 @@
+#!/usr/bin/python3
+"""End-to-end: the simulated robot cell on loopback. edgefused (host-sim) replays a rig set with
+tracking.poses = robot and then robot+icp, never with the set's truth (tracking.sim_truth = false);
+tools/robot/robot_sim.py is the robot controller (its hand-eye mounting over the console, CAPTURE,
+250 Hz POSE stream with 0.5-1 mm / 0.05-0.1 deg error per update and 10 ms latency, DETECT, NEXT
+until NO_OBJECTS, PICKED OK). Checks, in the robot's base frame (the set's world frame): robot+icp
+delivers every object within the physical tolerance (each <= 5 mm / 5 deg, median <= 1.5 mm /
+1 deg), it is no worse than robot alone, and the replay's time base starts within 50 ms of the
+CAPTURE reply the robot's motion starts with.
+
+usage: robot_cell_e2e.py [--emulator CMD] [--time-factor F] EDGEFUSED EDGEFUSE DATA WORKDIR
+"""
+import json
+import os
+import signal
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from edgefused_helpers import emulation, popen, wait_started  # noqa: E402
+
+EMU, SLOW = emulation(sys.argv)
+EDGEFUSED, EDGEFUSE, DATA, WORK = sys.argv[1:5]
+ROBOT_SIM = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools", "robot", "robot_sim.py")
+BOARD = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "board", "host-sim", "edgefused.toml")
+# Half speed (7.6 s of rig motion per run): every frame reaches the map on a loaded 2-core machine.
+SPEED = 0.5
+failures = []
+
+
+def check(cond, what):
+    print(("ok   " if cond else "FAIL ") + what, flush=True)
+    if not cond:
+        failures.append(what)
+
+
+def cycle(mode):
+    """One edgefused run driven by robot_sim; returns robot_sim's summary (None when it did not run)."""
+    work = os.path.join(WORK, mode)
+    os.makedirs(work, exist_ok=True)
+    log_path = os.path.join(work, "edgefused.log")
+    log = open(log_path, "w+")
+    d = popen([*EMU, EDGEFUSED, "--board", "host-sim", "--config", BOARD, "--set", "sensors.replay=" + os.path.join(DATA, "bin_rig_a"),
+               "--set", "link.tcp_port=0", "--set", "robot.text_port=0", "--set", "link.serial=", "--set", "console.echo=false",
+               "--set", "tracking.poses=" + mode, "--set", "tracking.sim_truth=false", "--set", "robot.latency_us=10000",
+               "--set", "sensors.replay_speed=%g" % SPEED, "--set", "calib.dir=" + os.path.join(work, "state")], stdout=log, stderr=subprocess.STDOUT)
+    info = wait_started(d, log, 60)
+    if "ready" not in info or "robot" not in info or "console" not in info:
+        log.seek(0)
+        print(log.read())
+        check(False, "%s: edgefused started" % mode)
+        d.kill()
+        return None
+    summary_path = os.path.join(work, "summary.json")
+    r = subprocess.run(["/usr/bin/python3", ROBOT_SIM, "--port", info["robot"].rsplit(":", 1)[1], "--data", os.path.join(DATA, "bin_rig_a"),
+                        "--console", info["console"], "--log", log_path, "--edgefuse", EDGEFUSE, "--out", work,
+                        "--summary", summary_path, "--speed", "%g" % SPEED, "--max-median-mm", "100", "--max-median-deg", "100"],
+                       capture_output=True, text=True, timeout=240 * SLOW)
+    print(r.stdout + r.stderr, flush=True)
+    d.send_signal(signal.SIGTERM)
+    d.wait(timeout=20 * SLOW)
+    check(d.returncode == 0, "%s: SIGTERM stops edgefused cleanly" % mode)
+    log.seek(0)
+    out = log.read()
+    check("localize: 0 frames skipped without a robot pose" in out,
+          "%s: every frame had the robot's pose at its stamp" % mode)
+    if not os.path.exists(summary_path):
+        check(False, "%s: robot_sim finished the cycle (exit %d)" % (mode, r.returncode))
+        return None
+    with open(summary_path) as f:
+        return json.load(f)
+
+
+os.makedirs(WORK, exist_ok=True)
+runs = {mode: cycle(mode) for mode in ("robot", "robot+icp")}
+for mode, s in runs.items():
+    if s is None:
+        continue
+    check(s.get("pose_rate_hz", 0) >= 200, "%s: %d POSE updates at %.0f Hz" % (mode, s.get("pose_updates", 0), s.get("pose_rate_hz", 0)))
+    off = s.get("timing_offset_ms")
+    check(off is not None and abs(off) <= 50 * SLOW, "%s: the replay's time base starts %s ms after the CAPTURE reply" %
+          (mode, "%.2f" % off if off is not None else "?"))
+    print("%s: found %s/%s, median %.2f mm / %.3f deg" % (mode, s.get("found"), s.get("truth"), s.get("median_mm", -1), s.get("median_deg", -1)))
+icp, rob = runs.get("robot+icp"), runs.get("robot")
+if icp is not None and "median_mm" in icp:
+    check(icp["found"] == icp["truth"], "robot+icp: every object delivered (%d/%d)" % (icp["found"], icp["truth"]))
+    worst = max(icp["per_object"], key=lambda p: p[1])
+    check(all(p[1] <= 5.0 and p[2] <= 5.0 for p in icp["per_object"]),
+          "robot+icp: each object within 5 mm / 5 deg (worst object %d: %.2f mm %.2f deg)" % tuple(worst))
+    check(icp["median_mm"] <= 1.5 and icp["median_deg"] <= 1.0,
+          "robot+icp: median %.2f mm / %.3f deg <= 1.5 mm / 1 deg" % (icp["median_mm"], icp["median_deg"]))
+    if rob is not None and "median_mm" in rob:
+        # No worse: at least as many objects, the translation median within 0.3 mm of robot's (the
+        # localiser's own spread between runs), or better.
+        check(icp["found"] >= rob["found"] and icp["median_mm"] <= rob["median_mm"] + 0.3,
+              "robot+icp (%d found, median %.2f mm) no worse than robot (%d found, median %.2f mm)" %
+              (icp["found"], icp["median_mm"], rob["found"], rob["median_mm"]))
+else:
+    check(False, "robot+icp: objects checked against the truth")
+print("FAILED: %d checks" % len(failures) if failures else "all checks passed")
+sys.exit(1 if failures else 0)
