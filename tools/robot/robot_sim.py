@@ -326,9 +326,10 @@ def main():
         epoch = stamp_s - (rec_first - path.first) / args.speed
         offset_ms = 1e3 * (epoch - t0)
         summary["timing_offset_ms"] = offset_ms
-        print("robot_sim: timing: the replay's time base starts %.2f ms after the CAPTURE reply the robot's motion starts "
-              "with (frame %d stamped %.6f s): the streamed poses describe each frame's pose %.2f ms off, "
-              "%.3f mm at the rig's top speed" % (offset_ms, seq, stamp_s, offset_ms, offset_ms * top_speed(path) * args.speed))
+        print("robot_sim: timing: the replay's time base (frame %d stamped %.6f s) starts %.2f ms %s the CAPTURE reply "
+              "the robot's motion starts with: the streamed poses are %.2f ms off the frames, %.3f mm at the rig's top "
+              "speed" % (seq, stamp_s, abs(offset_ms), "after" if offset_ms >= 0 else "before", abs(offset_ms),
+                         abs(offset_ms) * top_speed(path) * args.speed))
     elif args.log:
         print("robot_sim: timing: edgefused's log has no 'pipeline: first frame of the scan' line")
     models = {int(a): b for a, b in re.findall(r"^model (\d+): (\S+)", log, re.M)}
