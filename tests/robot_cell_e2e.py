@@ -78,8 +78,8 @@ for mode, s in runs.items():
         continue
     check(s.get("pose_rate_hz", 0) >= 200, "%s: %d POSE updates at %.0f Hz" % (mode, s.get("pose_updates", 0), s.get("pose_rate_hz", 0)))
     off = s.get("timing_offset_ms")
-    check(off is not None and abs(off) <= 50 * SLOW, "%s: the replay's time base starts %s ms after the CAPTURE reply" %
-          (mode, "%.2f" % off if off is not None else "?"))
+    check(off is not None and abs(off) <= 50 * SLOW, "%s: the replay's time base starts %s ms from the CAPTURE reply (+: after)" %
+          (mode, "%+.2f" % off if off is not None else "?"))
     print("%s: found %s/%s, median %.2f mm / %.3f deg" % (mode, s.get("found"), s.get("truth"), s.get("median_mm", -1), s.get("median_deg", -1)))
 icp, rob = runs.get("robot+icp"), runs.get("robot")
 
