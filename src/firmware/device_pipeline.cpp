@@ -423,6 +423,7 @@ bool DevicePipeline::start_mapping(const char** why) {
   }
   mapping_ = true;
   warned_no_pose_ = false;  // said again once a scan
+  said_first_stamp_ = false;
   return true;
 }
 
@@ -534,6 +535,14 @@ void DevicePipeline::process_reference(uint64_t now_us) {
     stats_.fps = stats_.fps <= 0 ? inst : 0.9f * stats_.fps + 0.1f * inst;
   }
   last_frame_us_ = now_us;
+  if (!said_first_stamp_) {
+    // The board clock's time of the scan's first reference frame: a robot (or a simulated one)
+    // lines its pose stream up with the camera's time base by it.
+    said_first_stamp_ = true;
+    std::printf("pipeline: first frame of the scan: %s stamp %llu us (sequence %u, board clock)\n", ref.name.c_str(),
+                static_cast<unsigned long long>(ref.held->stamp_us), unsigned(ref.held->sequence));
+    std::fflush(stdout);
+  }
   // The backend's truth: the frame's pose with tracking.poses = known, the tracking error's
   // reference with tracking.sim_truth; never otherwise.
   const hal::TruthSource* truth = tracked() ? sim_truth(ref.index) : devices_.truth(ref.index);
@@ -546,6 +555,7 @@ void DevicePipeline::process_reference(uint64_t now_us) {
   const bool starts = config_.poses == CameraPoses::kIcp && mapper_.starts_new_map();
   const Pose start = starts ? tracking_start_pose(ref.held->sequence, ref.held->stamp_us) : Pose::identity();
   ReferenceStep step;
+  if (mapper_.starts_new_map()) base_placement_ = BasePlacement();
   const Status s = mapper_.map_reference(ref.slot, ref.held_frame(), has_given ? &given : nullptr, start, step);
   if (step.filtered) ++stats_.frames;
   if (step.centred) {
@@ -565,6 +575,10 @@ void DevicePipeline::process_reference(uint64_t now_us) {
   if (icp_poses()) {
     stats_.tracking = runtime_state(step.track.state);
     if (step.track.state == TrackState::kLost) ++lost_frames_;
+    // robot+icp: the map lies where the first frame's robot pose put it (its error included); every
+    // tracked frame's robot pose against its ICP pose says where the map lies in the base frame.
+    if (config_.poses == CameraPoses::kRobotIcp && has_given && step.track.state == TrackState::kOk)
+      base_placement_.add(given * step.T_world_cam.inverse());
   } else {
     stats_.tracking = runtime::TrackingState::kOk;
   }
@@ -601,6 +615,27 @@ bool DevicePipeline::wait_for_robot_pose(const CameraStream& ref, uint64_t now_u
   Pose T;
   if (!robot_poses() || flange_poses_ == nullptr || robot_pose(ref.held->stamp_us, T)) return false;
   return int64_t(now_us) < int64_t(ref.held->stamp_us) + config_.robot_latency_us + int64_t(kRobotPoseWaitUs);
+}
+
+void DevicePipeline::BasePlacement::add(const Pose& T_base_map) {
+  const Eigen::Quaternionf q = T_base_map.quaternion();
+  double qd[4] = {q.x(), q.y(), q.z(), q.w()};
+  if (frames > 0 && qd[0] * this->q[0] + qd[1] * this->q[1] + qd[2] * this->q[2] + qd[3] * this->q[3] < 0)
+    for (double& c : qd) c = -c;
+  for (int k = 0; k < 3; ++k) t[k] += double(T_base_map.t[k]);
+  for (int k = 0; k < 4; ++k) this->q[k] += qd[k];
+  ++frames;
+}
+
+// The mean of small corrections: translations averaged, quaternions averaged and normalised.
+bool DevicePipeline::BasePlacement::mean(Pose& T_base_map) const {
+  if (frames < 2) return false;
+  const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  if (!(n > 0)) return false;
+  const double f = 1.0 / double(frames);
+  T_base_map = Pose::from_tq(float(t[0] * f), float(t[1] * f), float(t[2] * f), float(q[0] / n), float(q[1] / n),
+                             float(q[2] / n), float(q[3] / n));
+  return true;
 }
 
 bool DevicePipeline::robot_pose(uint64_t stamp_us, Pose& T_base_ref) const {
@@ -722,18 +757,26 @@ void DevicePipeline::run_localization() {
                 to_string(report.status));
     return;
   }
+  // robot+icp: results in the base frame through the map's averaged placement there.
+  Pose T_base_map = Pose::identity();
+  if (config_.poses == CameraPoses::kRobotIcp && base_placement_.mean(T_base_map)) {
+    const float deg = Eigen::AngleAxisf(T_base_map.R).angle() * 57.29578f;
+    std::printf("localize: map placed in the robot's base frame by %u frames (robot pose x ICP pose^-1 averaged): "
+                "%.3f mm, %.4f deg from the first frame's\n",
+                unsigned(base_placement_.frames), double(T_base_map.t.norm()) * 1e3, double(deg));
+  }
   const LocalizedObject* o = loc_.results();
   for (std::size_t i = 0; i < report.count; ++i) {
     // id: 1 + the model's index in `model list` (0: a model-free segment); in picking order.
     runtime::ObjectResult obj;
     obj.id = o[i].model >= 0 ? uint32_t(o[i].model + 1) : 0u;
-    obj.T_world_object = o[i].T_world_object;
+    obj.T_world_object = T_base_map * o[i].T_world_object;
     obj.score = o[i].score;
-    obj.grasp_m = o[i].grasp_m;
-    obj.approach = o[i].approach;
+    obj.grasp_m = T_base_map * o[i].grasp_m;
+    obj.approach = T_base_map.R * o[i].approach;
     if (!r.add(obj)) break;
-    const Eigen::Quaternionf q = o[i].T_world_object.quaternion();
-    const Vec3f& t = o[i].T_world_object.t;
+    const Eigen::Quaternionf q = obj.T_world_object.quaternion();
+    const Vec3f& t = obj.T_world_object.t;
     std::printf("localize: %zu %s t %.4f %.4f %.4f q %.5f %.5f %.5f %.5f score %.3f\n", i + 1,
                 request.segments ? "segment" : loc_.model(o[i].model).name, double(t.x()), double(t.y()),
                 double(t.z()), double(q.x()), double(q.y()), double(q.z()), double(q.w()), double(o[i].score));

@@ -232,8 +232,19 @@ class DevicePipeline final : public runtime::Pipeline {
   uint64_t last_frame_us_ = 0;
   runtime::PipelineStats stats_;
   bool warned_no_pose_ = false;
+  bool said_first_stamp_ = false;  // the scan's first reference frame stamp was printed
   const runtime::FlangePoseSource* flange_poses_ = nullptr;
   uint32_t robot_pose_missing_ = 0;
+  // robot+icp: the map's placement in the robot's base frame, averaged over the tracked frames
+  // (robot pose x ICP pose^-1 of each); the results are reported through it.
+  struct BasePlacement {
+    double t[3] = {0, 0, 0};     // sum of the translations
+    double q[4] = {0, 0, 0, 0};  // sum of the quaternions (x y z w, sign-aligned to the first)
+    uint32_t frames = 0;
+    void add(const Pose& T_base_map);
+    bool mean(Pose& T_base_map) const;  // false with fewer than 2 frames
+  };
+  BasePlacement base_placement_;
 
   // the localisation, on its own thread
   hal::BackgroundJob localization_;
