@@ -100,7 +100,7 @@ else()
   execute_process(COMMAND dpkg --print-architecture OUTPUT_VARIABLE _deb_arch OUTPUT_STRIP_TRAILING_WHITESPACE)
 endif()
 # The run-time libraries of the cross builds (everything else is linked statically, see
-# toolchains/cross-static-libs.cmake), by soname: tests/package_install.py checks that the
+# toolchains/cross-static-libs.cmake and tools/formats/CMakeLists.txt), by soname: tests/package_install.py checks that the
 # installed programs need no other. Declared here because dpkg-shlibdeps cannot work on the
 # sysroot: tools/sysroot.sh unpacks the ARM packages without dpkg's database (no shlibs files).
 # Lower bounds: bookworm's versions of the libraries the sysroot holds.
@@ -112,7 +112,9 @@ set(EDGEFUSE_CROSS_RUNTIME_SONAMES
   "libstdc++.so.6=libstdc++6 (>= 12)"
   "libgcc_s.so.1=libgcc-s1 (>= 3.0)"
   "libOpenNI2.so.0=libopenni2-0 (>= 2.2.0.33)"
-  "libudev.so.1=libudev1 (>= 183)")
+  "libudev.so.1=libudev1 (>= 183)"
+  "libpng16.so.16=libpng16-16 (>= 1.6.39)"
+  "libz.so.1=zlib1g (>= 1:1.2.13)")
 set(_depends "adduser")
 if(CMAKE_CROSSCOMPILING)
   foreach(_entry IN LISTS EDGEFUSE_CROSS_RUNTIME_SONAMES)

@@ -5,8 +5,9 @@
 #  - /usr/<triplet>: libc and libstdc++ of the Debian cross compiler (libc6-dev-<arch>-cross,
 #    libstdc++6-<arch>-cross); the compiler uses it by itself and qemu-user loads from it (-L).
 #  - EDGEFUSE_SYSROOT: Debian's <arch> -dev packages unpacked by tools/sysroot.sh (CppUTest, libpng,
-#    zlib, liblzf, toml++ headers). Only static archives of it are linked, so that the binaries
-#    need nothing at run time beyond what /usr/<triplet> has.
+#    zlib, liblzf, toml++ headers). Static archives of it are linked, but for libpng, zlib and the
+#    HAL's OpenNI2 / libudev: shared, as the board's packages provide them (the emulator below puts
+#    the sysroot's library folders on the guest's LD_LIBRARY_PATH).
 #  - the host: programs (cmake, python3) and the header-only Eigen (/usr/include/eigen3, found with
 #    NO_CMAKE_FIND_ROOT_PATH by the top-level CMakeLists).
 set(CMAKE_SYSTEM_NAME Linux)
@@ -55,5 +56,7 @@ if(NOT EDGEFUSE_QEMU_EXECUTABLE)
   set(EDGEFUSE_QEMU_EXECUTABLE "${EDGEFUSE_CROSS_QEMU}")
 endif()
 # ctest (and add_custom_command with a target as command) run the ARM binaries through qemu-user;
-# -L makes the guest's dynamic loader and libc/libstdc++ come from the cross compiler's root.
-set(CMAKE_CROSSCOMPILING_EMULATOR "${EDGEFUSE_QEMU_EXECUTABLE};-L;/usr/${EDGEFUSE_CROSS_TRIPLET}")
+# -L makes the guest's dynamic loader and libc/libstdc++ come from the cross compiler's root, -E
+# gives every guest the sysroot's shared libraries (libpng, zlib, OpenNI2, libudev: Debian keeps
+# zlib in /lib/<triplet>, the others in /usr/lib/<triplet>).
+set(CMAKE_CROSSCOMPILING_EMULATOR "${EDGEFUSE_QEMU_EXECUTABLE};-L;/usr/${EDGEFUSE_CROSS_TRIPLET};-E;LD_LIBRARY_PATH=${EDGEFUSE_SYSROOT}/usr/lib/${EDGEFUSE_CROSS_TRIPLET}:${EDGEFUSE_SYSROOT}/lib/${EDGEFUSE_CROSS_TRIPLET}")

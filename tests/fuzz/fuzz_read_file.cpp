@@ -1,5 +1,5 @@
-// Fuzz target for one file reader, chosen at build time by EDGEFUSE_FUZZ_FORMAT (one executable
-// per format, so each has its own corpus). The input is written to a file and read back through
+// Fuzz target for one file reader, chosen at link time by kEdgefuseFuzzFormat (one executable
+// per format, so each has its own corpus; CMakeLists.txt generates the one-line definition). The input is written to a file and read back through
 // the reader's public function. Invariants (DEVELOPERS.md, bad input):
 //   - no crash, no sanitizer report, no hang (libFuzzer's -timeout);
 //   - a refusal names the file (the error starts with its path);
@@ -28,9 +28,8 @@
 #include "edgefuse/runtime/params.hpp"
 #include "fuzz_check.hpp"
 
-#ifndef EDGEFUSE_FUZZ_FORMAT
-#error "EDGEFUSE_FUZZ_FORMAT names the reader (see kReaders)"
-#endif
+// The reader's format (see kReaders), defined by each program's generated fuzz_format_<name>.cpp.
+extern const char kEdgefuseFuzzFormat[];
 
 namespace {
 
@@ -248,8 +247,8 @@ constexpr Reader kReaders[] = {
 
 const Reader& reader() {
   for (const Reader& r : kReaders)
-    if (!std::strcmp(r.format, EDGEFUSE_FUZZ_FORMAT)) return r;
-  std::fprintf(stderr, "unknown EDGEFUSE_FUZZ_FORMAT %s\n", EDGEFUSE_FUZZ_FORMAT);
+    if (!std::strcmp(r.format, kEdgefuseFuzzFormat)) return r;
+  std::fprintf(stderr, "unknown fuzz format %s\n", kEdgefuseFuzzFormat);
   std::abort();
 }
 
