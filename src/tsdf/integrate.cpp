@@ -141,7 +141,10 @@ void build_depth_tiles(const ImageView<const uint16_t>& depth, const DepthScale<
     }
 }
 
-enum class BrickClass { kSkip, kFreeSpace, kVoxels };
+// kFreeOrHoles: every valid pixel under the box measures more than trunc beyond it, but some
+// pixels have no depth. Its voxels get +1 samples or nothing, as with kFreeSpace, only which ones
+// needs the voxel loop.
+enum class BrickClass { kSkip, kFreeSpace, kFreeOrHoles, kVoxels };
 
 constexpr int kHalf = kBrickSide / 2;  // edge of the blocks a mixed brick is split into
 // Boxes whose footprint (with the bilinear margin) has at most this many pixels are classified
@@ -163,6 +166,32 @@ inline void free_space_update(int16_t* tsdf, uint8_t* weight, std::size_t base, 
         weight[idx] = cap_weight(old_w + full_weight, max_weight);
         surface |= value < kTsdfMax;  // no branch on it
       }
+}
+
+// Whether every voxel of the brick at `base` is observed at +1 with at least kSettledFreeWeight.
+inline bool free_settled(const int16_t* tsdf, const uint8_t* weight, std::size_t base) {
+  bool settled = true;
+  for (int i = 0; i < kBrickVoxels; ++i)
+    settled = settled && weight[base + i] >= kSettledFreeWeight && tsdf[base + i] == kTsdfMax;
+  return settled;
+}
+
+// Settled free space far from any surface (flags below) gains nothing from more free-space
+// samples but weight, which would only make a new object there appear more slowly: such a brick
+// is left alone while this frame sees it free (kFreeOrHoles too: it would only get +1 samples).
+// Its voxels keep +1 and their weight, so raycast skipping, extraction and "observed" are as
+// before; once a measurement falls into or next to it the voxel loop runs and sets kBrickSurface,
+// and surface bricks are always updated, so removed objects are still carved away.
+inline bool leave_settled(uint8_t flags, BrickClass cls) {
+  const uint8_t settled_far = kBrickFreeSettled;
+  return (cls == BrickClass::kFreeSpace || cls == BrickClass::kFreeOrHoles) &&
+         (flags & (kBrickFreeSettled | kBrickSurface | kBrickNearSurface)) == settled_far;
+}
+
+// After an update of a brick without surface nearby: records whether it is now settled free space.
+inline void note_settled(uint8_t& flags, const int16_t* tsdf, const uint8_t* weight, std::size_t base) {
+  if (flags & (kBrickFreeSettled | kBrickSurface | kBrickNearSurface)) return;
+  if (free_settled(tsdf, weight, base)) flags |= kBrickFreeSettled;
 }
 
 // Classifies a box of voxels (a brick or a part of one) from its 8 corner voxel centres (camera
@@ -193,10 +222,11 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const LaneCamera<Real>&
       // (below; hi only grows and lo only falls), so does the whole footprint, and the brick goes
       // to its blocks. Not for the blocks themselves: most of them are decided by a full scan,
       // and the per-row test would only add to it.
+      // (A missing pixel does not stop the scan: the brick may still be kFreeOrHoles.)
       if (stop_early && hi != 0) {
         const Real z_meas_lo = job.depth.metres(uint16_t(lo)), z_meas_hi = job.depth.metres(uint16_t(hi));
         if (!(z_lo - z_meas_hi > job.rho) &&
-            !(all && z_meas_lo - z_hi > job.trunc && z_meas_lo >= job.min_z && z_meas_hi <= job.max_z))
+            !(z_meas_lo - z_hi > job.trunc && z_meas_lo >= job.min_z && z_meas_hi <= job.max_z))
           return BrickClass::kVoxels;
       }
     }
@@ -236,8 +266,8 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const LaneCamera<Real>&
   // d = (z - p.z) |ray| and |ray| >= 1: behind every measurement by rho -> d < -rho everywhere.
   if (z_lo - z_meas_hi > job.rho) return BrickClass::kSkip;
   // In front of every measurement by trunc, every pixel valid and in range: d >= trunc everywhere.
-  if (all && z_meas_lo - z_hi > job.trunc && z_meas_lo >= job.min_z && z_meas_hi <= job.max_z)
-    return BrickClass::kFreeSpace;
+  if (z_meas_lo - z_hi > job.trunc && z_meas_lo >= job.min_z && z_meas_hi <= job.max_z)
+    return all ? BrickClass::kFreeSpace : BrickClass::kFreeOrHoles;
   return BrickClass::kVoxels;
 }
 
@@ -426,7 +456,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
     for (int r = 0; r < 3; ++r) c0[r] = job.R[r * 3] * w0[0] + job.R[r * 3 + 1] * w0[1] + job.R[r * 3 + 2] * w0[2] + job.t[r];
 
     const BrickClass cls = classify_box(job, cam, c0, span, near_z, true);
-    if (cls == BrickClass::kSkip) continue;
+    if (cls == BrickClass::kSkip || leave_settled(flags[brick], cls)) continue;
     const std::size_t base = std::size_t(brick) * kBrickVoxels;
     bool surface = false, observed = false;
     if (colour_only && (cls == BrickClass::kFreeSpace || (flags[brick] & kBrickSurface) == 0)) continue;
@@ -434,6 +464,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
       free_space_update(tsdf, weight, base, 0, kBrickSide, max_weight, full_weight, surface);
       flags[brick] |= surface ? (kBrickObserved | kBrickSurface) : kBrickObserved;
       if (flags[brick] & kBrickSurface) block_mask::refresh(volume, brick);
+      else note_settled(flags[brick], tsdf, weight, base);
       continue;
     }
     // A mixed brick: classify its eight 4^3 blocks, so that only those the surface band passes
@@ -445,7 +476,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
         cb[r] = c0[r] + step[0][r] * real_from_int<Real>(off[0]) + step[1][r] * real_from_int<Real>(off[1]) +
                 step[2][r] * real_from_int<Real>(off[2]);
       const BrickClass sub = classify_box(job, cam, cb, half_span, near_z, false);
-      if (sub == BrickClass::kSkip) continue;
+      if (sub == BrickClass::kSkip) continue;  // kFreeOrHoles: to the voxel loop
       const int first = (off[2] << 6) | (off[1] << 3) | off[0];
       if (sub == BrickClass::kFreeSpace && colour_only) continue;
       if (sub == BrickClass::kFreeSpace) {
@@ -544,6 +575,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
     if (observed) flags[brick] |= kBrickObserved;
     if (surface) flags[brick] |= kBrickSurface;
     if (observed && (flags[brick] & kBrickSurface)) block_mask::refresh(volume, brick);
+    else if (observed && !colour_only) note_settled(flags[brick], tsdf, weight, base);
   }
 }
 

@@ -16,7 +16,9 @@
 // Bricks are classified before their voxels are touched, with the min / max depth of the 8x8
 // pixel tiles they project onto (FrameScratch): entirely more than rho behind every measurement ->
 // skipped; entirely more than trunc in front of every measurement of fully valid tiles -> free
-// space, each voxel blended towards +1 without projection; otherwise voxel by voxel. (Boxes with
+// space, each voxel blended towards +1 without projection; otherwise voxel by voxel. Settled free
+// space (kBrickFreeSettled, no surface in or next to the brick) that the frame sees free, or free
+// apart from pixels without depth, is left alone: more +1 samples would only raise its weight. (Boxes with
 // small footprints are classified from their own pixels, larger ones from 2x2-tile windows; the
 // voxels of a 4^3 block are projected a row of 4 at a time, see src/tsdf/row_projection.hpp.)
 //

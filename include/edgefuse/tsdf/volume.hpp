@@ -37,7 +37,13 @@ enum BrickFlag : uint8_t {
   kBrickSurface = 2,      //!< some voxel is inside the truncation band (|tsdf| < 1)
   kBrickNearSurface = 4,  //!< this brick or one of its 26 neighbours has kBrickSurface
   kBrickDilated = 8,      //!< kBrickNearSurface already set on the 26 neighbours
+  //! Settled free space: every voxel observed at +1 with at least kSettledFreeWeight. Integration
+  //! leaves such a brick alone while no surface is in or next to it (integrate.hpp).
+  kBrickFreeSettled = 16,
 };
+//! Weight (4 full samples) from which free space counts as settled: a lone outlier sample
+//! against it moves a voxel to about +0.6, not across the surface.
+inline constexpr uint8_t kSettledFreeWeight = 4 * kWeightUnitsPerSample;
 
 //! Views of the static buffers of one volume; sizes are for capacity_dim^3 voxels.
 struct VoxelStorage {
