@@ -1,9 +1,11 @@
-"""Helpers shared by the edgefused end-to-end tests (edgefused_e2e.py, edgefused_fusion_e2e.py):
-the options of a run under an emulator, the programs they start (stopped when the test ends, also
-on an exception), edgefused's start-up lines, the console pseudo-terminal in raw mode, one console command and its reply, the
-process's VmData."""
+"""Helpers shared by the edgefused end-to-end tests (edgefused_e2e.py, edgefused_fusion_e2e.py, the
+robot tests): the options of a run under an emulator, the programs they start (stopped when the
+test ends, also on an exception), edgefused's start-up lines, the console pseudo-terminal in raw
+mode, one console command and its reply, waiting for a replayed recording to be mapped, the
+process's VmData, and the checks' record."""
 import atexit
 import os
+import re
 import select
 import shlex
 import subprocess
@@ -111,3 +113,32 @@ def vm_data_kib(pid):
             if line.startswith("VmData:"):
                 return int(line.split()[1])
     return -1
+
+
+def wait_recording_mapped(con, frames_total, timeout_s, poll_s=0.3):
+    """Polls the console's `status` until the replayed recording ended and each of its frames_total
+    frames was integrated or dropped (the camera thread reports the end as soon as it published the
+    last frame; the main loop integrates it a moment later), or timeout_s passed. Returns (frames,
+    drops, the last status reply); drops is -1 when the status had none."""
+    frames, drops, status = 0, -1, ""
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end and ("end of recording" not in status or frames + drops < frames_total):
+        time.sleep(poll_s)
+        status = command(con, "status")
+        m = re.search(r"frames (\d+)", status)
+        frames = int(m.group(1)) if m else frames
+        m = re.search(r"drops (\d+)", status)
+        drops = int(m.group(1)) if m else -1
+    return frames, drops, status
+
+
+# The checks of a test script: each printed as it is made; the failed ones kept for the exit code.
+failures = []
+
+
+def check(cond, what):
+    """Records one check (printed `ok` / `FAIL`); returns cond."""
+    print(("ok   " if cond else "FAIL ") + what, flush=True)
+    if not cond:
+        failures.append(what)
+    return cond

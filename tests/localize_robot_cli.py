@@ -24,44 +24,14 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import command, open_raw, popen, wait_started  # noqa: E402
+from edgefused_helpers import check, command, failures, open_raw, popen, wait_started  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools", "robot"))
+from pose_math import angle_deg as qangle, compose  # noqa: E402
 
 EDGEFUSE, EDGEFUSED, DATA, WORK = (os.path.abspath(a) for a in sys.argv[1:5])
 SET = os.path.join(DATA, "handeye_rig_a")
 MODELS = ["box", "bracket", "can", "cylinder"]
 SYMMETRIC = {"box", "cylinder"}  # discrete / continuous symmetries: rotation not compared to the truth
-failures = []
-
-
-def check(cond, what):
-    print(("ok   " if cond else "FAIL ") + what, flush=True)
-    if not cond:
-        failures.append(what)
-    return cond
-
-
-def qmul(a, b):
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
-
-
-def qrot(q, v):
-    x, y, z, w = qmul(qmul(q, tuple(v) + (0.0,)), (-q[0], -q[1], -q[2], q[3]))
-    return (x, y, z)
-
-
-def compose(a, b):  # (t, q) * (t, q)
-    t = qrot(a[1], b[0])
-    return (tuple(p + r for p, r in zip(a[0], t)), qmul(a[1], b[1]))
-
-
-def qangle(a, b):
-    d = abs(sum(x * y for x, y in zip(a, b))) / math.sqrt(sum(x * x for x in a) * sum(y * y for y in b))
-    return math.degrees(2 * math.acos(min(1.0, d)))
-
-
 def run(args, want_exit=0):
     r = subprocess.run([EDGEFUSE, "localize", SET] + args, capture_output=True, text=True, cwd=WORK, timeout=600)
     if r.returncode != want_exit:

@@ -21,20 +21,13 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import emulation, popen, wait_started  # noqa: E402
+from edgefused_helpers import check, emulation, failures, popen, wait_started  # noqa: E402
 
 EMU, SLOW = emulation(sys.argv)
 EDGEFUSED, EDGEFUSE, DATA, WORK = sys.argv[1:5]
 ROBOT_SIM = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools", "robot", "robot_sim.py")
 BOARD = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "board", "host-sim", "edgefused.toml")
 SPEED = 1.0  # sensors.replay_speed and robot_sim --speed
-failures = []
-
-
-def check(cond, what):
-    print(("ok   " if cond else "FAIL ") + what, flush=True)
-    if not cond:
-        failures.append(what)
 
 
 def cycle(mode, name=None):

@@ -27,7 +27,9 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import command, emulation, open_raw, popen, wait_started  # noqa: E402
+from edgefused_helpers import check, emulation, failures, open_raw, popen, wait_recording_mapped, wait_started  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools", "robot"))
+from pose_math import angle_deg as quat_angle_deg, axis_angle, qmul as quat_mul  # noqa: E402
 
 EMU, SLOW = emulation(sys.argv)
 EDGEFUSED, DATA, EXAMPLES, WORK = (os.path.abspath(a) for a in sys.argv[1:5])
@@ -41,28 +43,9 @@ INT_FIELDS = {"id", "n", "left", "code"}
 # behind the recording, and builds beside the test slow it several-fold; frames missing from the
 # map can add false poses (the last check needs only three objects at their true place).
 REPLAY_SPEED = 0.05 if EMU else 0.5
-failures = []
-
-
-def check(cond, what):
-    print(("ok   " if cond else "FAIL ") + what, flush=True)
-    if not cond:
-        failures.append(what)
-    return cond
-
-
 # --- rotations ------------------------------------------------------------------------------------
-def quat_mul(a, b):
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
-
-
 def quat_axis(axis, deg):
-    h = math.radians(deg) / 2
-    s = math.sin(h)
-    return tuple(s * c for c in axis) + (math.cos(h),)
+    return axis_angle(axis, math.radians(deg))
 
 
 def quat_from_rotvec(r):
@@ -96,11 +79,6 @@ def abc_from_quat(q):
     r22 = 1 - 2 * (x * x + y * y)
     return (math.degrees(math.atan2(r10, r00)), math.degrees(math.asin(max(-1.0, min(1.0, -r20)))),
             math.degrees(math.atan2(r21, r22)))
-
-
-def quat_angle_deg(a, b):
-    d = abs(sum(x * y for x, y in zip(a, b))) / math.sqrt(sum(x * x for x in a) * sum(y * y for y in b))
-    return math.degrees(2 * math.acos(min(1.0, d)))
 
 
 FLANGE_Q = quat_mul(quat_axis((0, 0, 1), 30), quat_axis((0, 1, 0), 180))
@@ -228,15 +206,7 @@ def grasp_names(form):
 
 def wait_scan(con):
     """Until the recording ended and every frame was integrated or dropped (console status)."""
-    frames, drops, status = 0, -1, ""
-    end = time.monotonic() + 60 * SLOW
-    while time.monotonic() < end and ("end of recording" not in status or frames + drops < 20):
-        time.sleep(0.3)
-        status = command(con, "status")
-        m = re.search(r"frames (\d+)", status)
-        frames = int(m.group(1)) if m else frames
-        m = re.search(r"drops (\d+)", status)
-        drops = int(m.group(1)) if m else -1
+    frames, drops, status = wait_recording_mapped(con, 20, 60 * SLOW)
     check("end of recording" in status and frames + drops == 20 and frames > 0,
           "scan: %d frames integrated, %d dropped, end of recording" % (frames, drops))
 

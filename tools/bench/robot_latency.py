@@ -25,7 +25,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tests"))
-from edgefused_helpers import command, open_raw, popen, wait_started  # noqa: E402
+from edgefused_helpers import open_raw, popen, wait_recording_mapped, wait_started  # noqa: E402
 
 
 def ask(s, buf, text):
@@ -61,15 +61,7 @@ def one_run(args, k):
     s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
     buf = [b""]
     assert ask(s, buf, "CAPTURE 0.4 0 0.6 0 1 0 0") == "OK"
-    frames, drops, status = 0, -1, ""
-    end = time.monotonic() + 120
-    while time.monotonic() < end and ("end of recording" not in status or frames + drops < 20):
-        time.sleep(0.05)
-        status = command(con, "status")
-        m = re.search(r"frames (\d+)", status)
-        frames = int(m.group(1)) if m else frames
-        m = re.search(r"drops (\d+)", status)
-        drops = int(m.group(1)) if m else -1
+    frames, drops, status = wait_recording_mapped(con, 20, 120, poll_s=0.05)
     t0 = time.monotonic()
     r = ask(s, buf, "DETECT")
     detect_ms = 1000 * (time.monotonic() - t0)

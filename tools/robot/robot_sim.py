@@ -40,6 +40,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from edgefuse_robot import RobotClient, RobotError  # noqa: E402
+from pose_math import axis_angle, compose, inverse, qmul, qnorm, slerp  # noqa: E402
 
 # The default mounting: the camera 96 mm out along the flange axis, 42 mm off it, turned 90 deg
 # about the flange axis and tilted 10 deg (a bracket on the gripper's side).
@@ -48,60 +49,6 @@ DEFAULT_MOUNT = "0.042 -0.018 0.096 0.0616284 0.0616284 0.7044160 0.7044160"
 # localiser's own spread on bin_rig_a is about 0.5 mm / 0.5 deg with exact poses.
 TARGET_MEDIAN_MM = 1.0
 TARGET_MEDIAN_DEG = 0.5
-
-# --- poses: (t, q) with t a 3-tuple in metres and q = (x, y, z, w) a unit quaternion ------------
-
-def qmul(a, b):
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
-
-
-def qconj(q):
-    return (-q[0], -q[1], -q[2], q[3])
-
-
-def qrot(q, v):
-    x, y, z, _ = qmul(qmul(q, (v[0], v[1], v[2], 0.0)), qconj(q))
-    return (x, y, z)
-
-
-def qnorm(q):
-    n = math.sqrt(sum(c * c for c in q))
-    q = tuple(c / n for c in q)
-    return q if q[3] >= 0 else tuple(-c for c in q)
-
-
-def compose(a, b):
-    ta, qa = a
-    tb, qb = b
-    r = qrot(qa, tb)
-    return ((ta[0] + r[0], ta[1] + r[1], ta[2] + r[2]), qnorm(qmul(qa, qb)))
-
-
-def inverse(a):
-    t, q = a
-    qi = qconj(q)
-    r = qrot(qi, t)
-    return ((-r[0], -r[1], -r[2]), qi)
-
-
-def slerp(q0, q1, s):
-    d = sum(a * b for a, b in zip(q0, q1))
-    if d < 0:
-        q1, d = tuple(-c for c in q1), -d
-    if d > 0.9995:
-        return qnorm(tuple(a + s * (b - a) for a, b in zip(q0, q1)))
-    th = math.acos(d)
-    w0, w1 = math.sin((1 - s) * th) / math.sin(th), math.sin(s * th) / math.sin(th)
-    return qnorm(tuple(w0 * a + w1 * b for a, b in zip(q0, q1)))
-
-
-def axis_angle(axis, rad):
-    s = math.sin(rad / 2)
-    return (axis[0] * s, axis[1] * s, axis[2] * s, math.cos(rad / 2))
-
 
 def read_poses(path):
     """A TUM-style pose file: `stamp tx ty tz qx qy qz qw` lines -> [(stamp, (t, q))]."""
