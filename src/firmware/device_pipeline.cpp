@@ -16,6 +16,7 @@
 #include "edgefuse/hal/platform/clock/cpu_clock.hpp"
 #include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
 #include "edgefuse/io/localize_io.hpp"
+#include "edgefuse/runtime/calib_pose.hpp"
 
 namespace edgefuse::firmware {
 
@@ -30,9 +31,7 @@ constexpr std::size_t kCentreSamples = std::size_t(kBuildBoard.image_width_max /
                                        std::size_t(kBuildBoard.image_height_max / 2 + 1);
 float g_centre_xyz[3][kCentreSamples];
 
-Pose to_pose(const runtime::CalibPose& p) {
-  return Pose::from_tq(p.tq[0], p.tq[1], p.tq[2], p.tq[3], p.tq[4], p.tq[5], p.tq[6]);
-}
+using runtime::to_pose;
 
 // The acquisition worker's stall limit for a camera: its default (1 s without a frame), or three
 // frame periods of a camera slower than that allows: a replay in slow motion (a 5 fps recording at
@@ -651,8 +650,7 @@ Pose DevicePipeline::flange_to_reference(const char** mount) const {
   const CameraStream& ref = cams_[order_[0]];
   Pose T_rig_ref = Pose::identity();
   *mount = "identity";
-  if (const runtime::SensorPair* p = runtime::calib_find_pair(calib_, "rig", ref.name.c_str())) {
-    T_rig_ref = to_pose(p->T_from_to);
+  if (runtime::rig_mounting(calib_, ref.name.c_str(), T_rig_ref)) {
     *mount = "calibration store";
   } else if (const hal::TruthSource* truth = sim_truth(ref.index)) {
     if (truth->mounting(T_rig_ref)) *mount = "sim mounting";

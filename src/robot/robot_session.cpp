@@ -2,7 +2,8 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstring>
+
+#include "edgefuse/runtime/calib_pose.hpp"
 
 namespace edgefuse::robot {
 
@@ -314,10 +315,9 @@ void RobotSession::calibration_get(int client, const Request& r) {
   const runtime::CalibPose& p = rt_.calibration().T_flange_rig;
   Reply& out = begin(r);
   out.has_hand_eye = true;
-  out.T_flange_camera = Pose::from_tq(p.tq[0], p.tq[1], p.tq[2], p.tq[3], p.tq[4], p.tq[5], p.tq[6]);
+  out.T_flange_camera = runtime::to_pose(p);
   // The stored default is the identity: no hand-eye calibration has been saved.
-  const runtime::CalibPose unset;
-  if (std::memcmp(p.tq, unset.tq, sizeof(p.tq)) == 0) {
+  if (runtime::is_default(p)) {
     out.status = ReplyStatus::kNotCalibrated;
     copy_text(out.message, "no hand-eye calibration stored");
   }

@@ -2,6 +2,7 @@
 
 
 #include "edgefuse/hal/platform/config/calib_file_store.hpp"
+#include "edgefuse/runtime/calib_pose.hpp"
 #include "edgefuse/runtime/calibration.hpp"
 
 namespace edgefuse::cli {
@@ -61,22 +62,15 @@ bool load_flange_mounting(const std::string& dir, const std::string& sensor, Pos
     err = "calibration store " + dir + ": no valid slot (" + rep.message + ")";
     return false;
   }
-  const runtime::CalibPose unset;
-  bool same = true;
-  for (int k = 0; k < 7; ++k) same = same && data.T_flange_rig.tq[k] == unset.tq[k];
-  if (same) {
+  if (runtime::is_default(data.T_flange_rig)) {
     err = "calibration store " + dir + ": no hand-eye calibration stored (T_flange_rig is the identity default)";
     return false;
   }
-  const auto to_pose = [](const runtime::CalibPose& p) {
-    return Pose::from_tq(p.tq[0], p.tq[1], p.tq[2], p.tq[3], p.tq[4], p.tq[5], p.tq[6]);
-  };
   Pose T_rig_sensor = Pose::identity();
-  const runtime::SensorPair* pair = runtime::calib_find_pair(data, "rig", sensor.c_str());
-  if (pair != nullptr) T_rig_sensor = to_pose(pair->T_from_to);
-  T_flange_sensor = to_pose(data.T_flange_rig) * T_rig_sensor;
+  const bool mounted = runtime::rig_mounting(data, sensor.c_str(), T_rig_sensor);
+  T_flange_sensor = runtime::to_pose(data.T_flange_rig) * T_rig_sensor;
   what = "calibration store " + store.slot_path(rep.slot) + " (seq " + std::to_string(rep.seq) + "): T_flange_rig" +
-         (pair != nullptr ? " x T_rig_" + sensor : " (the rig is " + sensor + ")");
+         (mounted ? " x T_rig_" + sensor : " (the rig is " + sensor + ")");
   return true;
 }
 
