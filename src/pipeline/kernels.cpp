@@ -46,7 +46,7 @@ Status integrate_frame(const RowRunner* runner, TsdfVolume& volume, const Pinhol
   IntegrationJob<Real> job;
   const Status s = prepare_integration(volume, intr, ray_norms, frame, T_world_cam, trust, scratch, job);
   if (s != Status::kOk) return s;
-  IntegrateRows<Real> c{&volume, &job, select_bricks(volume, intr, T_world_cam)};
+  IntegrateRows<Real> c{&volume, &job, select_band_bricks(volume, intr, frame, T_world_cam)};
   const int rows = int((c.bricks + kIntegrateBricksPerRow - 1) / kIntegrateBricksPerRow);
   if (runner != nullptr && runner->run != nullptr)
     runner->run(runner->self, &integrate_rows<Real>, &c, rows);

@@ -4,6 +4,7 @@
 
 #include "kernel_math.hpp"
 #include "block_mask.hpp"
+#include "frustum.hpp"
 #include "row_projection.hpp"
 #include "voxel_update.hpp"
 
@@ -141,10 +142,7 @@ void build_depth_tiles(const ImageView<const uint16_t>& depth, const DepthScale<
     }
 }
 
-// kFreeOrHoles: every valid pixel under the box measures more than trunc beyond it, but some
-// pixels have no depth. Its voxels get +1 samples or nothing, as with kFreeSpace, only which ones
-// needs the voxel loop.
-enum class BrickClass { kSkip, kFreeSpace, kFreeOrHoles, kVoxels };
+enum class BrickClass { kSkip, kFreeSpace, kVoxels };
 
 constexpr int kHalf = kBrickSide / 2;  // edge of the blocks a mixed brick is split into
 // Boxes whose footprint (with the bilinear margin) has at most this many pixels are classified
@@ -166,32 +164,6 @@ inline void free_space_update(int16_t* tsdf, uint8_t* weight, std::size_t base, 
         weight[idx] = cap_weight(old_w + full_weight, max_weight);
         surface |= value < kTsdfMax;  // no branch on it
       }
-}
-
-// Whether every voxel of the brick at `base` is observed at +1 with at least kSettledFreeWeight.
-inline bool free_settled(const int16_t* tsdf, const uint8_t* weight, std::size_t base) {
-  bool settled = true;
-  for (int i = 0; i < kBrickVoxels; ++i)
-    settled = settled && weight[base + i] >= kSettledFreeWeight && tsdf[base + i] == kTsdfMax;
-  return settled;
-}
-
-// Settled free space far from any surface (flags below) gains nothing from more free-space
-// samples but weight, which would only make a new object there appear more slowly: such a brick
-// is left alone while this frame sees it free (kFreeOrHoles too: it would only get +1 samples).
-// Its voxels keep +1 and their weight, so raycast skipping, extraction and "observed" are as
-// before; once a measurement falls into or next to it the voxel loop runs and sets kBrickSurface,
-// and surface bricks are always updated, so removed objects are still carved away.
-inline bool leave_settled(uint8_t flags, BrickClass cls) {
-  const uint8_t settled_far = kBrickFreeSettled;
-  return (cls == BrickClass::kFreeSpace || cls == BrickClass::kFreeOrHoles) &&
-         (flags & (kBrickFreeSettled | kBrickSurface | kBrickNearSurface)) == settled_far;
-}
-
-// After an update of a brick without surface nearby: records whether it is now settled free space.
-inline void note_settled(uint8_t& flags, const int16_t* tsdf, const uint8_t* weight, std::size_t base) {
-  if (flags & (kBrickFreeSettled | kBrickSurface | kBrickNearSurface)) return;
-  if (free_settled(tsdf, weight, base)) flags |= kBrickFreeSettled;
 }
 
 // Classifies a box of voxels (a brick or a part of one) from its 8 corner voxel centres (camera
@@ -222,7 +194,6 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const LaneCamera<Real>&
       // (below; hi only grows and lo only falls), so does the whole footprint, and the brick goes
       // to its blocks. Not for the blocks themselves: most of them are decided by a full scan,
       // and the per-row test would only add to it.
-      // (A missing pixel does not stop the scan: the brick may still be kFreeOrHoles.)
       if (stop_early && hi != 0) {
         const Real z_meas_lo = job.depth.metres(uint16_t(lo)), z_meas_hi = job.depth.metres(uint16_t(hi));
         if (!(z_lo - z_meas_hi > job.rho) &&
@@ -267,7 +238,7 @@ BrickClass classify_box(const IntegrationJob<Real>& job, const LaneCamera<Real>&
   if (z_lo - z_meas_hi > job.rho) return BrickClass::kSkip;
   // In front of every measurement by trunc, every pixel valid and in range: d >= trunc everywhere.
   if (z_meas_lo - z_hi > job.trunc && z_meas_lo >= job.min_z && z_meas_hi <= job.max_z)
-    return all ? BrickClass::kFreeSpace : BrickClass::kFreeOrHoles;
+    return all ? BrickClass::kFreeSpace : BrickClass::kVoxels;  // holes: which voxels get +1 needs the loop
   return BrickClass::kVoxels;
 }
 
@@ -359,12 +330,7 @@ std::size_t select_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr, con
   const float vs = volume.voxel_m();
   const float radius = 0.5f * std::sqrt(3.0f) * kBrickSide * vs;
   const float far_z = intr.max_range_m + volume.params().trunc_m;
-  // Side planes of the frustum through the sensor centre, inward normals. Pixel u is inside when
-  // -0.5 <= u <= width - 0.5, i.e. fx x + (cx + 0.5) z >= 0 and -fx x + (width - 0.5 - cx) z >= 0.
-  Vec3f planes[4] = {Vec3f(intr.fx, 0, intr.cx + 0.5f), Vec3f(-intr.fx, 0, intr.width - 0.5f - intr.cx),
-                     Vec3f(0, intr.fy, intr.cy + 0.5f), Vec3f(0, -intr.fy, intr.height - 0.5f - intr.cy)};
-  for (Vec3f& n : planes) n.normalize();
-
+  const FrustumPlanes planes = frustum_planes(intr);
   const int nb = volume.bricks_per_axis();
   uint32_t* list = volume.brick_list();
   std::size_t count = 0;
@@ -373,11 +339,7 @@ std::size_t select_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr, con
     for (int by = 0; by < nb; ++by)
       for (int bx = 0; bx < nb; ++bx) {
         const Vec3f centre_w = volume.origin_m() + Vec3f(float(bx), float(by), float(bz)) * (kBrickSide * vs) + half;
-        const Vec3f c = T_cam_world * centre_w;
-        if (c.z() + radius <= 0.0f || c.z() - radius > far_z) continue;
-        bool outside = false;
-        for (const Vec3f& n : planes) outside = outside || n.dot(c) < -radius;
-        if (outside) continue;
+        if (!planes.may_see(T_cam_world * centre_w, radius, far_z)) continue;
         list[count++] = uint32_t(volume.brick_index(bx, by, bz));
       }
   return count;
@@ -456,7 +418,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
     for (int r = 0; r < 3; ++r) c0[r] = job.R[r * 3] * w0[0] + job.R[r * 3 + 1] * w0[1] + job.R[r * 3 + 2] * w0[2] + job.t[r];
 
     const BrickClass cls = classify_box(job, cam, c0, span, near_z, true);
-    if (cls == BrickClass::kSkip || leave_settled(flags[brick], cls)) continue;
+    if (cls == BrickClass::kSkip) continue;
     const std::size_t base = std::size_t(brick) * kBrickVoxels;
     bool surface = false, observed = false;
     if (colour_only && (cls == BrickClass::kFreeSpace || (flags[brick] & kBrickSurface) == 0)) continue;
@@ -464,7 +426,6 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
       free_space_update(tsdf, weight, base, 0, kBrickSide, max_weight, full_weight, surface);
       flags[brick] |= surface ? (kBrickObserved | kBrickSurface) : kBrickObserved;
       if (flags[brick] & kBrickSurface) block_mask::refresh(volume, brick);
-      else note_settled(flags[brick], tsdf, weight, base);
       continue;
     }
     // A mixed brick: classify its eight 4^3 blocks, so that only those the surface band passes
@@ -476,7 +437,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
         cb[r] = c0[r] + step[0][r] * real_from_int<Real>(off[0]) + step[1][r] * real_from_int<Real>(off[1]) +
                 step[2][r] * real_from_int<Real>(off[2]);
       const BrickClass sub = classify_box(job, cam, cb, half_span, near_z, false);
-      if (sub == BrickClass::kSkip) continue;  // kFreeOrHoles: to the voxel loop
+      if (sub == BrickClass::kSkip) continue;
       const int first = (off[2] << 6) | (off[1] << 3) | off[0];
       if (sub == BrickClass::kFreeSpace && colour_only) continue;
       if (sub == BrickClass::kFreeSpace) {
@@ -575,7 +536,6 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
     if (observed) flags[brick] |= kBrickObserved;
     if (surface) flags[brick] |= kBrickSurface;
     if (observed && (flags[brick] & kBrickSurface)) block_mask::refresh(volume, brick);
-    else if (observed && !colour_only) note_settled(flags[brick], tsdf, weight, base);
   }
 }
 
@@ -599,6 +559,7 @@ void finish_integration(TsdfVolume& volume, std::size_t count) {
   const int nb = volume.bricks_per_axis();
   for (std::size_t i = 0; i < count; ++i) {
     const uint32_t brick = list[i];
+    flags[brick] &= uint8_t(~kBrickListed);
     if ((flags[brick] & (kBrickSurface | kBrickDilated)) != kBrickSurface) continue;
     flags[brick] |= kBrickDilated;
     int bx, by, bz;
@@ -617,7 +578,7 @@ Status integrate(TsdfVolume& volume, const PinholeIntrinsics& intr, ImageView<co
   IntegrationJob<Real> job;
   const Status s = prepare_integration(volume, intr, ray_norms, frame, T_world_cam, trust, scratch, job);
   if (s != Status::kOk) return s;
-  const std::size_t count = select_bricks(volume, intr, T_world_cam);
+  const std::size_t count = select_band_bricks(volume, intr, frame, T_world_cam);
   integrate_bricks(volume, job, 0, count);
   finish_integration(volume, count);
   return Status::kOk;

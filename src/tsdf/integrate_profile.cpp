@@ -210,9 +210,6 @@ Status integrate_profile(TsdfVolume& volume, const LineScannerModel& model, cons
         bool surface = false;
         if (!integrate_profile_brick(volume, k, lo, hi, bx, by, bz, surface, updated)) continue;
         flags[brick] |= surface ? (kBrickObserved | kBrickSurface) : kBrickObserved;
-        // Integration leaves settled free space alone only while it holds +1 everywhere; the
-        // profile kernel does not tell, so the brick is checked again by the next frame.
-        flags[brick] &= uint8_t(~kBrickFreeSettled);
         if (flags[brick] & kBrickSurface) block_mask::refresh(volume, brick);
         list[listed++] = uint32_t(brick);
       }

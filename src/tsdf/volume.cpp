@@ -13,6 +13,7 @@ Status TsdfVolume::init(const VoxelStorage& storage, int dim, const Vec3f& origi
   if (dim > storage.capacity_dim) return Status::kCapacityExceeded;
   if (!(params.voxel_m > 0) || !(params.trunc_m >= params.voxel_m) || !params.weight.valid() ||
       params.weight.rho_m > params.trunc_m || params.max_weight == 0 || !(params.colour_band_m >= 0) ||
+      !(params.free_margin_m >= 0) ||
       !origin_m.allFinite())
     return Status::kInvalidArgument;
   s_ = storage;

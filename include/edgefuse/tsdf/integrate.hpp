@@ -13,17 +13,21 @@
 // a trust map, the pixel's trust (its noise at that range, sensor/noise_model.hpp). Colour is fused with its
 // own weight where |d| < colour band.
 //
-// Bricks are classified before their voxels are touched, with the min / max depth of the 8x8
-// pixel tiles they project onto (FrameScratch): entirely more than rho behind every measurement ->
-// skipped; entirely more than trunc in front of every measurement of fully valid tiles -> free
-// space, each voxel blended towards +1 without projection; otherwise voxel by voxel. Settled free
-// space (kBrickFreeSettled, no surface in or next to the brick) that the frame sees free, or free
-// apart from pixels without depth, is left alone: more +1 samples would only raise its weight. (Boxes with
-// small footprints are classified from their own pixels, larger ones from 2x2-tile windows; the
-// voxels of a 4^3 block are projected a row of 4 at a time, see src/tsdf/row_projection.hpp.)
+// Only the bricks around the measurements (the truncation band and a free margin in front of it,
+// TsdfParams::free_margin_m) and the surface bricks in view are updated (select_band_bricks): free
+// space further from any surface is left as it is, observed or not, since more +1 samples there
+// carry no information; a surface the camera now sees through is carved, because its bricks are
+// always listed. Listed bricks are classified before their voxels
+// are touched, with the min / max depth of the pixels or 8x8 pixel tiles they project onto
+// (FrameScratch): entirely more than rho behind every measurement -> skipped; entirely more than
+// trunc in front of every measurement of fully valid pixels -> free space, each voxel blended
+// towards +1 without projection; otherwise voxel by voxel. (Boxes with small footprints are
+// classified from their own pixels, larger ones from 2x2-tile windows; the voxels of a 4^3 block
+// are projected a row of 4 at a time, see src/tsdf/row_projection.hpp.)
 //
 // Work is split in three steps so that a caller owning threads can run step 2 in parallel:
-//   1. select_bricks: frustum culling -> list of bricks the image can touch (volume.brick_list())
+//   1. select_band_bricks: the bricks around the measurements (truncation band) and the surface
+//      bricks in view (carving) -> volume.brick_list(); free space elsewhere is not touched
 //   2. integrate_bricks<Real>(..., begin, end) over slices of that list (bricks are disjoint)
 //   3. finish_integration: propagates surface flags to neighbouring bricks (serial, cheap)
 // integrate() does all three on the calling thread.
@@ -109,7 +113,19 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
                            const DepthFrame& frame, const Pose& T_world_cam, float trust, FrameScratch& scratch,
                            IntegrationJob<Real>& job);
 
-//! Step 1: frustum culling. Writes the selected bricks to volume.brick_list(); returns how many.
+//! Step 1: the bricks this frame updates, written to volume.brick_list() (returns how many):
+//! those holding voxels within -rho..trunc + free margin of a measurement they may read, and the surface bricks
+//! inside the frustum (src/tsdf/band_select.cpp). Marks them kBrickListed until
+//! finish_integration. Computed in float in both numeric builds (the same list).
+//! \param volume the space
+//! \param intr intrinsics of the depth image (bounds, range limits, depth scale)
+//! \param frame the frame's depth (and its jump_m)
+//! \param T_world_cam sensor pose
+std::size_t select_band_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr, const DepthFrame& frame,
+                               const Pose& T_world_cam);
+
+//! Every brick inside the frustum, written to volume.brick_list(); returns how many. The colour
+//! pass (colour_pass.hpp) paints what it sees with it.
 //! \param volume the space
 //! \param intr intrinsics (image bounds and range limits)
 //! \param T_world_cam sensor pose
@@ -119,7 +135,8 @@ std::size_t select_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr, con
 template <class Real>
 void integrate_bricks(TsdfVolume& volume, const IntegrationJob<Real>& job, std::size_t begin, std::size_t end);
 
-//! Step 3: marks the neighbours of surface bricks among the first `count` listed bricks.
+//! Step 3: marks the neighbours of surface bricks among the first `count` listed bricks and clears
+//! their kBrickListed mark.
 void finish_integration(TsdfVolume& volume, std::size_t count);
 
 //! All three steps on the calling thread.

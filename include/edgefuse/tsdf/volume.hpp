@@ -37,13 +37,10 @@ enum BrickFlag : uint8_t {
   kBrickSurface = 2,      //!< some voxel is inside the truncation band (|tsdf| < 1)
   kBrickNearSurface = 4,  //!< this brick or one of its 26 neighbours has kBrickSurface
   kBrickDilated = 8,      //!< kBrickNearSurface already set on the 26 neighbours
-  //! Settled free space: every voxel observed at +1 with at least kSettledFreeWeight. Integration
-  //! leaves such a brick alone while no surface is in or next to it (integrate.hpp).
-  kBrickFreeSettled = 16,
+  //! Listed for the frame being integrated: set by select_band_bricks, cleared by
+  //! finish_integration (integrate.hpp); never set outside an integration.
+  kBrickListed = 16,
 };
-//! Weight (4 full samples) from which free space counts as settled: a lone outlier sample
-//! against it moves a voxel to about +0.6, not across the surface.
-inline constexpr uint8_t kSettledFreeWeight = 4 * kWeightUnitsPerSample;
 
 //! Views of the static buffers of one volume; sizes are for capacity_dim^3 voxels.
 struct VoxelStorage {
@@ -66,6 +63,11 @@ struct TsdfParams {
   WeightParams weight;         //!< eq. (2); see weight.hpp for the defaults
   uint8_t max_weight = 255;    //!< weight cap in 1/8 samples (255: the last ~32 samples count)
   float colour_band_m = 0.0f;  //!< colour is fused only where |d| < colour_band (0: = eps)
+  //! Free space integrated in front of each measurement beyond the truncation band (0: 2 trunc);
+  //! further from any surface it is not touched (integrate.hpp). The localiser's verification
+  //! reads it: a pose that puts model points into observed free space is rejected, while an
+  //! unobserved point counts as occluded.
+  float free_margin_m = 0.0f;
 
   //! Parameters with the documented defaults for a voxel size and truncation.
   //! \param voxel_m voxel edge in metres  \param trunc_m truncation in metres

@@ -1,0 +1,32 @@
+// The side planes of a pinhole sensor's frustum, for culling bricks (private to src/tsdf).
+#pragma once
+
+#include "edgefuse/math/pose.hpp"
+#include "edgefuse/sensor/pinhole.hpp"
+
+namespace edgefuse {
+
+struct FrustumPlanes {
+  Vec3f n[4];  //!< inward unit normals of the planes through the sensor centre (camera frame)
+
+  //! Whether a sphere may reach into the frustum.
+  //! \param c centre in the camera frame  \param radius_m sphere radius  \param far_z beyond this z it cannot
+  bool may_see(const Vec3f& c, float radius_m, float far_z) const {
+    if (c.z() + radius_m <= 0.0f || c.z() - radius_m > far_z) return false;
+    bool outside = false;
+    for (const Vec3f& p : n) outside = outside || p.dot(c) < -radius_m;
+    return !outside;
+  }
+};
+
+//! Pixel u is inside when -0.5 <= u <= width - 0.5, i.e. fx x + (cx + 0.5) z >= 0 and
+//! -fx x + (width - 0.5 - cx) z >= 0; likewise in v.
+//! \param intr the sensor's intrinsics
+inline FrustumPlanes frustum_planes(const PinholeIntrinsics& intr) {
+  FrustumPlanes f = {{Vec3f(intr.fx, 0, intr.cx + 0.5f), Vec3f(-intr.fx, 0, intr.width - 0.5f - intr.cx),
+                      Vec3f(0, intr.fy, intr.cy + 0.5f), Vec3f(0, -intr.fy, intr.height - 0.5f - intr.cy)}};
+  for (Vec3f& p : f.n) p.normalize();
+  return f;
+}
+
+}  // namespace edgefuse
