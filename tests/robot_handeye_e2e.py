@@ -3,13 +3,13 @@
 sim backend) moves its rig along board/host-sim/handeye_stations.txt (sensors.sim_path: stations
 tilted 15-25 deg about different horizontal axes, rolled about the viewing axis, eased moves
 between them at ~1 deg a frame) and tracks it by ICP alone (tracking.poses = icp,
-tracking.sim_truth = false: no hand-eye and no truth); tools/robot/robot_sim.py --handeye is the
-robot: CAPTURE, a POSE stream, HANDEYE ADD at every station, HANDEYE SOLVE, and the solved
-T_flange_camera against its own mounting. Two runs: exact robot poses, then 0.2 mm / 0.02 deg of
-error per reported pose. Checks: the solve succeeds with >= 6 stations, the stations' RMS residual
-is small (the tracking is consistent), and the error meets issue 26's targets: 0.5 mm / 0.05 deg
-exact, 1 mm / 0.1 deg with the robot's error. Then HANDEYE SAVE and CALIBRATION return the solved
-mounting.
+tracking.sim_truth = false: no hand-eye and no truth; tracking.push_every_frame = true).
+tools/robot/robot_sim.py --handeye is the robot: CAPTURE, a POSE stream, HANDEYE ADD at every
+station, HANDEYE SOLVE, and the solved T_flange_camera against its own mounting. Two runs: exact
+robot poses, then 0.2 mm / 0.02 deg of error per reported pose. Checks: every station of the path
+added; the stations' RMS residual within the robot's error plus the tracking's (TRACKING_MM /
+TRACKING_DEG); the error within issue 26's targets, 0.5 mm / 0.05 deg exact, 1 mm / 0.1 deg with
+the robot's error; after HANDEYE SAVE, CALIBRATION returns the solved mounting.
 
 usage: robot_handeye_e2e.py [--emulator CMD] [--time-factor F] EDGEFUSED WORKDIR
 """
@@ -29,9 +29,13 @@ ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 ROBOT_SIM = os.path.join(ROOT, "tools", "robot", "robot_sim.py")
 BOARD = os.path.join(ROOT, "board", "host-sim", "edgefused.toml")
 STATIONS = os.path.join(ROOT, "board", "host-sim", "handeye_stations.txt")
-# issue 26's targets; the residual bound is 4x the RMS measured on this path (exact poses: ~0.2 mm,
-# ~0.02 deg): beyond it the tracking slipped at a move, which the error check would show too.
+# issue 26's targets per run. The stations' RMS residual is the robot's error per pose plus the
+# tracking's: 0.09-0.12 mm / 0.009-0.012 deg measured with exact poses on this path, so 0.35 mm /
+# 0.035 deg above the robot's error (3x) means tracking slipped; integrating only after 1 cm / 1 deg
+# (tracking.push_every_frame = false) left the first station 0.24 deg off the others (an RMS of 0.1
+# deg): the map then holds one noisy frame of each hold instead of their average.
 RUNS = (("exact", "0", "0", 0.5, 0.05), ("noisy", "0.2", "0.02", 1.0, 0.1))
+TRACKING_MM, TRACKING_DEG = 0.35, 0.035
 
 
 def run(name, error_mm, error_deg, save):
@@ -42,7 +46,7 @@ def run(name, error_mm, error_deg, save):
     log = open(log_path, "w+")
     d = popen([*EMU, EDGEFUSED, "--board", "host-sim", "--config", BOARD, "--set", "sensors.sim_path=" + STATIONS,
                "--set", "link.tcp_port=0", "--set", "robot.text_port=0", "--set", "link.serial=", "--set", "console.serial=",
-               "--set", "tracking.poses=icp", "--set", "tracking.sim_truth=false",
+               "--set", "tracking.poses=icp", "--set", "tracking.sim_truth=false", "--set", "tracking.push_every_frame=true",
                "--set", "calib.dir=" + os.path.join(work, "state")], stdout=log, stderr=subprocess.STDOUT)
     info = wait_started(d, log, 30)
     if "ready" not in info or "robot" not in info:
@@ -73,10 +77,12 @@ for name, e_mm, e_deg, max_mm, max_deg in RUNS:
     s = run(name, e_mm, e_deg, save=name == "exact")
     if s is None:
         continue
-    check(s.get("stations", 0) >= 6, "%s: %d stations added (of %d on the path)" % (name, s.get("stations", 0),
-                                                                                      s.get("stations_path", 0)))
-    check(s["residual_mm"] <= 1.0 and s["residual_deg"] <= 0.1,
-          "%s: station residual %.3f mm / %.4f deg RMS <= 1 mm / 0.1 deg" % (name, s["residual_mm"], s["residual_deg"]))
+    check(s.get("stations", 0) == s.get("stations_path", -1),
+          "%s: %d stations added (of %d on the path)" % (name, s.get("stations", 0), s.get("stations_path", 0)))
+    max_res_mm, max_res_deg = float(e_mm) + TRACKING_MM, float(e_deg) + TRACKING_DEG
+    check(s["residual_mm"] <= max_res_mm and s["residual_deg"] <= max_res_deg,
+          "%s: station residual %.3f mm / %.4f deg RMS <= %g mm / %g deg" % (name, s["residual_mm"], s["residual_deg"],
+                                                                           max_res_mm, max_res_deg))
     check(s["error_mm_result"] <= max_mm and s["error_deg_result"] <= max_deg,
           "%s: hand-eye error %.3f mm / %.4f deg <= %g mm / %g deg" % (name, s["error_mm_result"], s["error_deg_result"],
                                                                      max_mm, max_deg))
