@@ -39,13 +39,13 @@ def station(distance, azimuth_deg, tilt_deg, roll_deg):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="-")
-    ap.add_argument("--first-hold-s", type=float, default=4.0, help="hold at the first station (start-up, CAPTURE) [4]")
-    ap.add_argument("--hold-s", type=float, default=1.5, help="hold at every other station [1.5]")
+    ap.add_argument("--first-hold-s", type=float, default=2.5, help="hold at the first station (start-up, CAPTURE) [2.5]")
+    ap.add_argument("--hold-s", type=float, default=1.2, help="hold at every other station [1.2]")
     ap.add_argument("--move-s", type=float, default=2.5, help="move between stations [2.5]")
     ap.add_argument("--distance", type=float, default=0.67, help="camera to the bin's centre, m [0.67]")
-    ap.add_argument("--azimuths", default="0,72,144,216,288", help="degrees, one station each")
-    ap.add_argument("--tilts", default="20,15,25,18,22", help="degrees, one per azimuth")
-    ap.add_argument("--rolls", default="12,-12,15,-10,10", help="degrees, one per azimuth")
+    ap.add_argument("--azimuths", default="0,51,103,154,206,257,309", help="degrees, one station each")
+    ap.add_argument("--tilts", default="20,15,25,18,22,16,24", help="degrees, one per azimuth")
+    ap.add_argument("--rolls", default="12,-12,15,-10,10,-14,8", help="degrees, one per azimuth")
     args = ap.parse_args()
     az = [float(x) for x in args.azimuths.split(",")]
     tilts = [float(x) for x in args.tilts.split(",")]
