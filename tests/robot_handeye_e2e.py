@@ -37,10 +37,9 @@ STATIONS = os.path.join(ROOT, "board", "host-sim", "handeye_stations.txt")
 # deg): the map then holds one noisy frame of each hold instead of their average.
 RUNS = (("exact", "0", "0", 0.5, 0.05), ("noisy", "0.2", "0.02", 1.0, 0.1))
 # A run missing its target is repeated once: the solved translation scatters ~0.15 mm per axis
-# between runs of the same path (ICP) around +0.2 mm along the optical axis (the simulated
-# structured light's depth bias from its disparity quantisation, z^3 q^2 / 12 = 0.22 mm at 0.7 m,
-# which a hand-eye from that sensor's data carries), so now and then an exact run lands above
-# 0.5 mm (1 of 14 measured, 0.55 mm: docs/BENCHMARKS.md); two in a row fail.
+# between runs of the same path (ICP) around a mean 0.2 mm forward along the camera's axis (as a
+# depth bias would place it; not the sim sensor's own, which is < 0.05 mm), so now and then an
+# exact run lands above 0.5 mm (1 of 14 measured, 0.55 mm: docs/BENCHMARKS.md); two in a row fail.
 TRACKING_MM, TRACKING_DEG = 0.35, 0.035
 
 
