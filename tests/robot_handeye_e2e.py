@@ -37,8 +37,8 @@ STATIONS = os.path.join(ROOT, "board", "host-sim", "handeye_stations.txt")
 # deg): the map then holds one noisy frame of each hold instead of their average.
 RUNS = (("exact", "0", "0", 0.5, 0.05), ("noisy", "0.2", "0.02", 1.0, 0.1))
 # A run missing its target is repeated once: the solved translation scatters ~0.15 mm per axis
-# between runs of the same path (ICP) around a mean 0.2 mm forward along the camera's axis (as a
-# depth bias would place it; not the sim sensor's own, which is < 0.05 mm), so now and then an
+# between runs of the same path (ICP) around a mean 0.2 mm forward along the camera's axis (the
+# TSDF surface lies in front of the depth data: 0.8-0.9 mm with 3 mm voxels), so now and then an
 # exact run lands above 0.5 mm (1 of 14 measured, 0.55 mm: docs/BENCHMARKS.md); two in a row fail.
 TRACKING_MM, TRACKING_DEG = 0.35, 0.035
 
