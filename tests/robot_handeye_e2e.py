@@ -39,7 +39,7 @@ RUNS = (("exact", "0", "0", 0.5, 0.05), ("noisy", "0.2", "0.02", 1.0, 0.1))
 # A run missing its target is repeated once: the solved translation scatters ~0.15 mm per axis
 # between runs of the same path (ICP) around a mean 0.2 mm forward along the camera's axis (the
 # TSDF surface lies in front of the depth data: 0.8-0.9 mm with 3 mm voxels), so now and then an
-# exact run lands above 0.5 mm (1 of 14 measured, 0.55 mm: docs/BENCHMARKS.md); two in a row fail.
+# exact run lands above 0.5 mm (1 of 15 measured, 0.55 mm: docs/BENCHMARKS.md); two in a row fail.
 TRACKING_MM, TRACKING_DEG = 0.35, 0.035
 
 
