@@ -110,7 +110,7 @@ def run(args, T_fc, errors, read_poses, words):
         return 1
     finally:
         robot.close()
-    return judge(he, T_fc, errors, summary, args, words)
+    return judge(he, T_fc, errors, summary, args)
 
 
 def stream_and_add(robot, stations, flange, errors, epoch, args, words):
@@ -143,7 +143,7 @@ def save(robot, he):
     return same_pose
 
 
-def judge(he, T_fc, errors, summary, args, words):
+def judge(he, T_fc, errors, summary, args):
     t, q = tuple(he.pose[:3]), tuple(he.pose[3:7])
     err_mm = 1e3 * math.dist(t, T_fc[0])
     err_deg = angle_deg(q, T_fc[1])
