@@ -90,10 +90,12 @@ bool HalDevices::make_sim_camera(const io::BoardCamera& c, Clock& clock, uint64_
     return false;
   }
   if (c.fps > 0) sc.fps = c.fps;
+  sc.rig_path = sim_rig_path_;
   SimDepthCamera* sc_cam = new SimDepthCamera(sc, scene_, clock);
   // One rig: its cameras' poses follow the same motion clock (each starts on its own thread).
   if (rig_epoch_us == 0) rig_epoch_us = clock.now_us();
   sc_cam->set_rig_epoch_us(rig_epoch_us);
+  sim_rig_epoch_us_ = rig_epoch_us;
   cam.reset(sc_cam);
   truth = sc_cam;
   return true;

@@ -96,7 +96,9 @@ Pose SimDepthCamera::pose_of(uint32_t sequence) const {
   const double since_epoch_s =
       rig_epoch_us_ != 0 && start_us_ != 0 ? (double(start_us_) - double(rig_epoch_us_)) * 1e-6 : 0.0;
   const double t_s = since_epoch_s + double(sequence) / double(config_.fps > 0 ? config_.fps : 30);
-  return sim_rig_pose(t_s, config_.rig_radius_m, config_.rig_period_s) * config_.T_rig_cam;
+  const Pose T_world_rig = config_.rig_path != nullptr ? config_.rig_path->at(t_s)
+                                                      : sim_rig_pose(t_s, config_.rig_radius_m, config_.rig_period_s);
+  return T_world_rig * config_.T_rig_cam;
 }
 
 HalStatus SimDepthCamera::next_frame(DepthFrame& frame, uint32_t timeout_ms) {

@@ -164,6 +164,28 @@ bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) 
   return true;
 }
 
+// sensors.sim_path: the sim rig's key poses, before the devices are built (they keep a pointer).
+bool DevicePipeline::load_sim_path(std::string& err) {
+  if (config_.sim_path.empty()) return true;
+  if (!config_.replay.empty()) {
+    err = "sensors.sim_path moves the sim rig: not with sensors.replay";
+    return false;
+  }
+  if (!hal::load_sim_rig_path(config_.sim_path, sim_rig_path_, err)) return false;
+  devices_.set_sim_rig_path(&sim_rig_path_);
+  return true;
+}
+
+// The robot simulator reads the path's time base from this line (its clock is the HAL clock,
+// CLOCK_MONOTONIC, which Python's time.monotonic() reads too).
+void DevicePipeline::print_sim_path() const {
+  if (config_.sim_path.empty()) return;
+  std::printf("sim: rig path %s: %d keys over %.2f s from clock %llu us\n", config_.sim_path.c_str(),
+              sim_rig_path_.count, sim_rig_path_.duration_s(),
+              static_cast<unsigned long long>(devices_.sim_rig_epoch_us()));
+  std::fflush(stdout);
+}
+
 // The board's cameras from hal.toml (or the replayed set), each with its first mode.
 bool DevicePipeline::init_cameras(const std::string& hal_path, std::string& err) {
   const BoardCapacities& board = build_board();
@@ -171,11 +193,13 @@ bool DevicePipeline::init_cameras(const std::string& hal_path, std::string& err)
   if (!io::read_board_hal(hal_path, hal_data, err)) return false;
   // A replayed recording is one scan: it ends after its last frame (each frame integrated once) and
   // the rig then counts as still (the still-period trigger localises).
+  if (!load_sim_path(err)) return false;
   if (!devices_.build(hal_data, hal::monotonic_clock(), err, config_.replay, false, config_.replay_speed,
                       config_.inject_faults)) {
     err = hal_path + ": " + err;
     return false;
   }
+  print_sim_path();
   if (devices_.camera_count() == 0) {
     err = hal_path + " lists no [[camera]]";
     return false;

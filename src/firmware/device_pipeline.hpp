@@ -102,6 +102,7 @@ struct DevicePipelineConfig {
   bool inject_faults = false;  //!< cameras wrapped in FaultCameras (devices().faults(i)): tests
   bool push_every_frame = false;  //!< tracked: integrate every frame (else after 1 cm / 1 degree)
   double replay_speed = 1;  //!< replayed cameras' playback speed (1: the recorded rate)
+  std::string sim_path;     //!< sim cameras: the rig's key-pose file (hal::SimRigPath; "" : its circle)
   std::string fuse;         //!< cameras feeding the map, "a,b" (first: reference); "" : hal.toml's first
   std::string hal_file;     //!< the devices' hal.toml ("" : the board's); memory stays the board's (the
                             //!< tests of a target board's build run host-sim's simulated rig with it)
@@ -179,6 +180,10 @@ class DevicePipeline final : public runtime::Pipeline {
   void collect_pair_estimates(PairRun& run);
   bool try_pair_estimate(PairRun& run);
   bool init_cameras(const std::string& hal_path, std::string& err);
+  //! Loads config_.sim_path (when set) and hands it to the devices.
+  //! \param err the file and line of a bad key, or why the path does not apply
+  bool load_sim_path(std::string& err);
+  void print_sim_path() const;
   bool init_fused(const std::string& hal_path, std::string& err);
   bool init_scanner(const BoardCapacities& board, std::string& err);
   bool init_models(std::string& err);
@@ -205,6 +210,7 @@ class DevicePipeline final : public runtime::Pipeline {
 
   DevicePipelineConfig config_;
   hal::HalDevices devices_;
+  hal::SimRigPath sim_rig_path_;  // sensors.sim_path's keys (static: the devices keep a pointer)
   CameraStream cams_[kCamerasMax];
   ScannerStream scanner_;
   int camera_count_ = 0;

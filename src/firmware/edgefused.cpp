@@ -262,6 +262,7 @@ bool start_device_pipeline(const std::string& board, std::string& err) {
   fc.push_every_frame = g_params.get_bool(runtime::kTrackingPushEveryFrame);
   fc.fuse = g_params.get_text(runtime::kSensorsFuse);
   fc.replay_speed = g_params.get_number(runtime::kSensorsReplaySpeed);
+  fc.sim_path = g_params.get_text(runtime::kSensorsSimPath);
   return g_devices.init(fc, err);
 }
 

@@ -273,6 +273,21 @@ void RobotSession::hand_eye_add(int client, const Request& r) {
   send(client);
 }
 
+// The reply holds the RMS only; the log names the station that disagrees (a tracking slip at a
+// move shows as one large residual) and the result's 1-sigma.
+void RobotSession::print_hand_eye(const HandEyeResult& he) {
+  constexpr double kDeg = 180.0 / 3.14159265358979;
+  for (int i = 0; i < he.stations; ++i)
+    std::printf("handeye: station %d residual %.3f mm %.4f deg\n", i + 1, 1000.0 * double(he.station_residual_m[i]),
+                double(he.station_residual_deg[i]));
+  std::printf("handeye: %d stations, %d pairs, pair rms %.3f mm %.4f deg, 1-sigma rot %.4f %.4f %.4f deg trans %.3f %.3f "
+              "%.3f mm\n",
+              he.stations, he.pairs, 1000.0 * double(he.rms_translation_m), double(he.rms_rotation_deg),
+              kDeg * double(he.sigma[0]), kDeg * double(he.sigma[1]), kDeg * double(he.sigma[2]),
+              1000.0 * double(he.sigma[3]), 1000.0 * double(he.sigma[4]), 1000.0 * double(he.sigma[5]));
+  std::fflush(stdout);
+}
+
 void RobotSession::hand_eye_solve(int client, const Request& r) {
   hand_eye_ = HandEyeResult();
   if (station_count_ < 3) {  // the solver says so too, in more words than a reply holds
@@ -284,6 +299,7 @@ void RobotSession::hand_eye_solve(int client, const Request& r) {
       !hand_eye_.solved)
     return fail(client, r, ReplyStatus::kNotCalibrated,
                 hand_eye_.reason[0] != '\0' ? hand_eye_.reason : "the stations do not determine the mounting");
+  print_hand_eye(hand_eye_);
   Reply& out = begin(r);
   double sum_m = 0, sum_deg = 0;
   for (int i = 0; i < hand_eye_.stations; ++i) {

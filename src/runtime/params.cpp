@@ -68,6 +68,11 @@ const ParamDef kParamDefs[kParamCount] = {
     {"robot.latency_us", ParamType::kInt, -1000000, 1000000, "0", false,
      "tracking.poses = robot | robot+icp: how much later the robot stamps its flange pose than the moment it "
      "describes (the pose is looked up at the frame's stamp plus this)"},
+    // edgefused: the sim rig's motion
+    {"sensors.sim_path", ParamType::kString, 0, kParamTextMax, "", false,
+     "host-sim: the sim rig follows this TUM-format file of rig poses in the sim world ('stamp tx ty tz qx qy "
+     "qz qw' per line, s and m; eased lerp/slerp between keys, a repeated pose holds: a station) instead of its "
+     "circle above the bin ('' : the circle); at most 64 keys"},
 };
 
 namespace {

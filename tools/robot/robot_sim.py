@@ -23,7 +23,11 @@ T_base_flange = T_base_camera * inv(T_flange_camera), the base frame being the s
      in mm / deg, the median. Exit 1 when an object is missing or a median exceeds
      --max-median-mm / --max-median-deg.
 
-usage: robot_sim.py --port PORT --data SET [--console DEV] [--log EDGEFUSED_LOG] [--edgefuse EXE]
+With --handeye PATH (edgefused on the sim backend with sensors.sim_path = PATH, tracking.poses = icp)
+it calibrates the mounting instead: see handeye_sim.py.
+
+usage: robot_sim.py --port PORT --handeye PATH --log EDGEFUSED_LOG [--error-mm E] [--error-deg E] [--mount ...]
+       robot_sim.py --port PORT --data SET [--console DEV] [--log EDGEFUSED_LOG] [--edgefuse EXE]
                     [--error-mm LO,HI] [--error-deg LO,HI] [--latency-ms L] [--rate HZ] [--speed S]
                     [--mount "tx ty tz qx qy qz qw"] [--seed N] [--out DIR] [--summary FILE.json]
 """
@@ -170,12 +174,19 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--host", default="127.0.0.1")
     ap.add_argument("--port", type=int, required=True, help="edgefused's text port (robot: HOST:PORT)")
-    ap.add_argument("--data", required=True, help="the rig set edgefused replays (sensors.replay)")
+    ap.add_argument("--data", help="the rig set edgefused replays (sensors.replay); required without --handeye")
+    ap.add_argument("--handeye", metavar="PATH", help="hand-eye mode: the station path edgefused's sim rig follows "
+                    "(sensors.sim_path); errors default to 0 (exact poses)")
+    ap.add_argument("--save", action="store_true", help="--handeye: HANDEYE SAVE the result, check CALIBRATION")
+    ap.add_argument("--settle-s", type=float, default=0.8,
+                    help="--handeye: HANDEYE ADD this long after the rig reached a station [0.8]")
+    ap.add_argument("--warmup-s", type=float, default=1.0,
+                    help="--handeye: stations earlier than this after CAPTURE are skipped (tracking starts) [1]")
     ap.add_argument("--console", help="edgefused's console pty: the mounting is set there (calib set flange); without it "
                          "edgefused's calibration store must hold the same mounting")
     ap.add_argument("--mount", default=DEFAULT_MOUNT, help="T_flange_camera: tx ty tz qx qy qz qw (m)")
-    ap.add_argument("--error-mm", default="0.5,1", help="translation error per update, LO,HI mm [0.5,1]")
-    ap.add_argument("--error-deg", default="0.05,0.1", help="rotation error per update, LO,HI deg [0.05,0.1]")
+    ap.add_argument("--error-mm", default=None, help="translation error per update, LO,HI mm [0.5,1; --handeye: 0]")
+    ap.add_argument("--error-deg", default=None, help="rotation error per update, LO,HI deg [0.05,0.1; --handeye: 0]")
     ap.add_argument("--latency-ms", type=float, default=10.0,
                     help="each update describes the flange this long before it is sent [10]; "
                          "edgefused's robot.latency_us should say the same")
@@ -191,11 +202,20 @@ def main():
     ap.add_argument("--summary", help="write the figures as JSON here")
     args = ap.parse_args()
 
+    if args.error_mm is None:
+        args.error_mm = "0" if args.handeye else "0.5,1"
+    if args.error_deg is None:
+        args.error_deg = "0" if args.handeye else "0.05,0.1"
     mm, deg = pair(args.error_mm, "--error-mm"), pair(args.error_deg, "--error-deg")
     mv = [float(x) for x in args.mount.replace(",", " ").split()]
     if len(mv) != 7:
         raise SystemExit("robot_sim: --mount is tx ty tz qx qy qz qw")
     T_fc = (tuple(mv[:3]), qnorm(tuple(mv[3:])))
+    if args.handeye:
+        import handeye_sim
+        return handeye_sim.run(args, T_fc, Errors(mm, deg, args.seed), read_poses, words)
+    if not args.data:
+        raise SystemExit("robot_sim: --data SET (or --handeye PATH) is required")
     T_cf = inverse(T_fc)
     cam = read_first_sensor(args.data)
     path = Path(read_poses(os.path.join(args.data, cam, "groundtruth.txt")))

@@ -85,6 +85,9 @@ class RobotSession final : public runtime::ResultListener, public runtime::Flang
   void status(int client, const Request& r);
   void hand_eye_add(int client, const Request& r);
   void hand_eye_solve(int client, const Request& r);
+  //! The solve's per-station residuals and 1-sigma on stdout (edgefused's log).
+  //! \param he a solved result
+  static void print_hand_eye(const HandEyeResult& he);
   void hand_eye_save(int client, const Request& r);
   void calibration_get(int client, const Request& r);
   void fail(int client, const Request& r, ReplyStatus s, const char* why);

@@ -58,6 +58,8 @@ enum ParamId : int {
   kRobotUnits,
   kRobotRotation,
   kRobotLatencyUs,
+  // edgefused: the sim rig's motion
+  kSensorsSimPath,
   kParamCount
 };
 

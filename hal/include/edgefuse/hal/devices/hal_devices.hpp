@@ -22,6 +22,7 @@
 #include "edgefuse/hal/line_scanner.hpp"
 #include "edgefuse/hal/trigger.hpp"
 #include "edgefuse/hal/truth_source.hpp"
+#include "edgefuse/hal/sim/sim_rig_path.hpp"
 #include "edgefuse/hal/sim/sim_scene.hpp"
 
 namespace edgefuse::hal {
@@ -39,6 +40,11 @@ class HalDevices {
   //! simulated monitor reports; else camera(i) is the backend itself
   bool build(const io::BoardHal& board, Clock& clock, std::string& err, const std::string& replay_override = "",
              bool replay_loop = true, double replay_speed = 1.0, bool inject_faults = false);
+  //! Before build(): the sim cameras' rig follows these key poses instead of its circle.
+  //! \param path kept by pointer (must outlive the devices); null: the circle
+  void set_sim_rig_path(const SimRigPath* path) { sim_rig_path_ = path; }
+  //! The HAL clock time (us) the sim rig's motion started at (its path's time 0); 0 without sim cameras.
+  uint64_t sim_rig_epoch_us() const { return sim_rig_epoch_us_; }
   int camera_count() const { return int(cameras_.size()); }
   //! Camera i as the runtime uses it: the backend, or its FaultCamera when faults are injected.
   //! \param i index in hal.toml order
@@ -96,6 +102,8 @@ class HalDevices {
   std::vector<std::unique_ptr<FaultCamera>> faults_;  // empty unless faults are injected
   DeviceMonitor* monitor_ = nullptr;
   LineScanner* scanner_ = nullptr;
+  const SimRigPath* sim_rig_path_ = nullptr;
+  uint64_t sim_rig_epoch_us_ = 0;
   bool has_scanner_axis_ = false;
   Pose scanner_axis0_;
   Vec3f scanner_axis_ = Vec3f::UnitY();

@@ -5,7 +5,8 @@
 //   - ToF (PMD-like): amplitude 20000 * refl * cos(incidence) * (0.5 m / r)^2 with 2% noise;
 //     flying pixels (a depth jump > 3 cm to a 4-neighbour: probability 0.5 of a blend of both
 //     depths); noise sigma_z = min(5 mm * z / sqrt(a_n), 2 cm); no return below a_n = 0.02.
-// The rig moves on a slow horizontal circle above the bin (sim_rig_pose) so tracking has work;
+// The rig moves on a slow horizontal circle above the bin (sim_rig_pose) so tracking has work, or
+// along key poses (SimRigPath: stations for hand-eye calibration);
 // the camera offers that motion and its mounting as simulator truth (TruthSource).
 // Frames come at the mode's rate on the HAL clock (or as fast as possible when unpaced).
 #pragma once
@@ -15,6 +16,7 @@
 #include "edgefuse/hal/clock.hpp"
 #include "edgefuse/hal/depth_camera.hpp"
 #include "edgefuse/hal/sim/sim_random.hpp"
+#include "edgefuse/hal/sim/sim_rig_path.hpp"
 #include "edgefuse/hal/sim/sim_scene.hpp"
 #include "edgefuse/hal/truth_source.hpp"
 
@@ -31,6 +33,7 @@ struct SimDepthCameraConfig {
   Pose T_rig_cam;                 //!< mounting of this camera on the rig (xtion: identity)
   float rig_radius_m = 0.02f;     //!< radius of the rig's circular sway above the bin
   float rig_period_s = 8.0f;      //!< time for one circle
+  const SimRigPath* rig_path = nullptr;  //!< when set, the rig follows these key poses instead (kept by pointer)
   uint64_t seed = 1;              //!< noise seed
   uint32_t start_offset_us = 0;   //!< stamp offset of the first frame (unsynchronised cameras)
 };
