@@ -21,6 +21,7 @@
 // projects within half a pixel of it, at most 0.71 z / f from the pixel's ray.
 #include <cmath>
 
+#include "edgefuse/tsdf/frame_scratch.hpp"
 #include "edgefuse/tsdf/integrate.hpp"
 #include "frustum.hpp"
 
@@ -72,53 +73,134 @@ inline void neighbourhood_range(const ImageView<const uint16_t>& depth, int u, i
   }
 }
 
-// Lists the bricks around every measured pixel (see the top of the file).
+// The frame's geometry in brick coordinates (brick units; camera-frame metres times R).
+struct BandGeometry {
+  Mat3f R;             //!< camera-frame metres -> brick units (world rotation / brick edge)
+  Vec3f centre;        //!< sensor centre in brick coordinates
+  float inv_fx, inv_fy, cx, cy;
+  float inv_scale;     //!< raw depth -> metres
+  float front_m;       //!< listed in front of the lowest depth: trunc + free margin
+  float rho_m;         //!< listed behind the highest depth
+  float half_cell;     //!< half a pixel's diagonal in brick units per metre of z
+  float z_min, z_max;  //!< pixels outside this z-depth range list nothing
+  uint32_t jump_raw;   //!< the frame's depth jump in raw units
+  uint32_t flat_raw;   //!< a tile whose depths span at most this is listed as one box
+
+  //! Brick coordinates of the point at z-depth z_m on the ray through image point (u, v).
+  Vec3f at(float u, float v, float z_m) const {
+    return centre + R * Vec3f((u - cx) * inv_fx * z_m, (v - cy) * inv_fy * z_m, z_m);
+  }
+};
+
+// Extends [lo, hi] by the brick coordinates of p.
+inline void grow(Vec3f& lo, Vec3f& hi, const Vec3f& p) {
+  lo = lo.cwiseMin(p);
+  hi = hi.cwiseMax(p);
+}
+
+// Lists the bricks of the box [lo, hi] (brick coordinates) widened by margin.
+inline void list_region(BrickLister& out, const Vec3f& lo, const Vec3f& hi, float margin) {
+  int box_lo[3], box_hi[3];
+  for (int k = 0; k < 3; ++k) {
+    box_lo[k] = int(std::floor(lo[k] - margin));
+    box_hi[k] = int(std::floor(hi[k] + margin));
+  }
+  out.add_box(box_lo, box_hi);
+}
+
+// Lists the region of pixel (u, v) holding raw depth `raw`: its ray from the lowest depth its
+// voxels may read minus front_m to the highest plus rho, widened by half a pixel.
+void list_pixel(BrickLister& out, const BandGeometry& g, const ImageView<const uint16_t>& depth, int u, int v,
+                uint32_t raw) {
+  const float z = float(raw) * g.inv_scale;
+  if (z < g.z_min || z > g.z_max) return;
+  uint32_t lo, hi;
+  neighbourhood_range(depth, u, v, raw, g.jump_raw, lo, hi);
+  const float z_near = std::fmax(float(lo) * g.inv_scale - g.front_m, 0.0f);
+  const float z_far = float(hi) * g.inv_scale + g.rho_m;
+  Vec3f a = g.at(float(u), float(v), z_near), b = a;
+  grow(a, b, g.at(float(u), float(v), z_far));
+  list_region(out, a, b, g.half_cell * z_far);
+}
+
+// Lists the region of the side x side tile at pixel (u0, v0) as one box when its valid depths (with the
+// pixels around it that its voxels may interpolate from) span at most flat_raw; returns false
+// otherwise (depth edges: pixel by pixel instead). Pixels without depth list nothing: a voxel
+// whose nearest pixel has none is not updated. The box holds the image rectangle
+// of the tile's pixels (half a pixel around them) between the lowest depth minus front_m and the
+// highest plus rho: it is convex, so its 8 corners bound it.
+bool list_flat_tile(BrickLister& out, const BandGeometry& g, const ImageView<const uint16_t>& depth, int u0, int v0,
+                    int side) {
+  const int u1 = u0 + side - 1, v1 = v0 + side - 1;
+  if (u1 >= depth.width || v1 >= depth.height) return false;
+  const int a0 = u0 > 0 ? u0 - 1 : 0, a1 = u1 + 1 < depth.width ? u1 + 1 : u1;
+  const int b0 = v0 > 0 ? v0 - 1 : 0, b1 = v1 + 1 < depth.height ? v1 + 1 : v1;
+  uint32_t lo = 0xffff, hi = 0;
+  for (int y = b0; y <= b1; ++y) {
+    const uint16_t* row = depth.row(y);
+    for (int x = a0; x <= a1; ++x) {
+      const uint32_t q = row[x];
+      lo = q != 0 && q < lo ? q : lo;  // a pixel without depth is nobody's nearest valid pixel
+      hi = q > hi ? q : hi;
+    }
+  }
+  if (hi == 0) return true;  // nothing measured
+  if (hi - lo > g.flat_raw) return false;
+  const float near_lo = float(lo) * g.inv_scale, far_hi = float(hi) * g.inv_scale;
+  if (near_lo < g.z_min || far_hi > g.z_max) return false;
+  const float z_near = std::fmax(near_lo - g.front_m, 0.0f), z_far = far_hi + g.rho_m;
+  const float us[2] = {float(u0) - 0.5f, float(u1) + 0.5f}, vs[2] = {float(v0) - 0.5f, float(v1) + 0.5f};
+  Vec3f box_lo = g.at(us[0], vs[0], z_near), box_hi = box_lo;
+  for (const float z : {z_near, z_far})
+    for (const float u : us)
+      for (const float v : vs) grow(box_lo, box_hi, g.at(u, v, z));
+  list_region(out, box_lo, box_hi, 0.0f);
+  return true;
+}
+
+// Lists the bricks around every measured pixel (see the top of the file): 8x8 tiles on a smooth
+// surface as one box each (most of a frame; the per-pixel boxes of a tile overlap the same few
+// bricks), at depth edges 4x4 quarters, and the quarters that hold the edge pixel by pixel.
 void list_band(BrickLister& out, const TsdfVolume& volume, const PinholeIntrinsics& intr, const DepthFrame& frame,
                const Pose& T_world_cam) {
   const TsdfParams& p = volume.params();
-  const float inv_scale = 1.0f / intr.depth_scale;
   const float jump_m = frame.jump_m > p.trunc_m ? frame.jump_m : p.trunc_m;
-  const uint32_t jump_raw = uint32_t(std::ceil(jump_m * intr.depth_scale));
-  const float inv_brick = 1.0f / (kBrickSide * p.voxel_m);
-  const float front_m = p.trunc_m + (p.free_margin_m > 0.0f ? p.free_margin_m : 2.0f * p.trunc_m);
-  // Camera-frame metres -> brick coordinates.
-  const Mat3f R = T_world_cam.R * inv_brick;
-  const Vec3f centre = (T_world_cam.t - volume.origin_m()) * inv_brick;
-  const float half_cell = 0.71f / (intr.fx < intr.fy ? intr.fx : intr.fy) * inv_brick;  // per metre of z
-  const float z_min = intr.min_range_m - jump_m, z_max = intr.max_range_m + jump_m;
-  int last_lo[3] = {1, 1, 1}, last_hi[3] = {0, 0, 0};  // the box listed last (consecutive pixels repeat it)
-  for (int v = 0; v < intr.height; ++v) {
-    const uint16_t* row = frame.depth.row(v);
-    const Vec3f ray_v = R * Vec3f(-intr.cx / intr.fx, (float(v) - intr.cy) / intr.fy, 1.0f);
-    const Vec3f ray_du = R.col(0) * (1.0f / intr.fx);
-    for (int u = 0; u < intr.width; ++u) {
-      const uint32_t raw = row[u];
-      if (raw == 0) continue;
-      const float z = float(raw) * inv_scale;
-      if (z < z_min || z > z_max) continue;
-      uint32_t lo, hi;
-      neighbourhood_range(frame.depth, u, v, raw, jump_raw, lo, hi);
-      float z_near = float(lo) * inv_scale - front_m;
-      const float z_far = float(hi) * inv_scale + p.weight.rho_m;
-      z_near = z_near > 0.0f ? z_near : 0.0f;
-      const Vec3f ray = ray_v + ray_du * float(u);  // brick units per metre of z
-      const Vec3f a = centre + ray * z_near, b = centre + ray * z_far;
-      const float margin = half_cell * z_far;
-      int box_lo[3], box_hi[3];
-      for (int k = 0; k < 3; ++k) {
-        box_lo[k] = int(std::floor((a[k] < b[k] ? a[k] : b[k]) - margin));
-        box_hi[k] = int(std::floor((a[k] > b[k] ? a[k] : b[k]) + margin));
-      }
-      if (box_lo[0] == last_lo[0] && box_lo[1] == last_lo[1] && box_lo[2] == last_lo[2] &&
-          box_hi[0] == last_hi[0] && box_hi[1] == last_hi[1] && box_hi[2] == last_hi[2])
-        continue;
-      out.add_box(box_lo, box_hi);
-      for (int k = 0; k < 3; ++k) {
-        last_lo[k] = box_lo[k];
-        last_hi[k] = box_hi[k];
+  const float brick_m = kBrickSide * p.voxel_m;
+  BandGeometry g;
+  g.R = T_world_cam.R * (1.0f / brick_m);
+  g.centre = (T_world_cam.t - volume.origin_m()) * (1.0f / brick_m);
+  g.inv_fx = 1.0f / intr.fx;
+  g.inv_fy = 1.0f / intr.fy;
+  g.cx = intr.cx;
+  g.cy = intr.cy;
+  g.inv_scale = 1.0f / intr.depth_scale;
+  g.front_m = p.trunc_m + (p.free_margin_m > 0.0f ? p.free_margin_m : 2.0f * p.trunc_m);
+  g.rho_m = p.weight.rho_m;
+  g.half_cell = 0.71f / (intr.fx < intr.fy ? intr.fx : intr.fy) / brick_m;
+  g.z_min = intr.min_range_m - jump_m;
+  g.z_max = intr.max_range_m + jump_m;
+  g.jump_raw = uint32_t(std::ceil(jump_m * intr.depth_scale));
+  // A tile spanning up to a brick in depth: its box is at most about one brick deeper than its
+  // pixels' boxes together.
+  g.flat_raw = uint32_t(brick_m * intr.depth_scale);
+  const ImageView<const uint16_t>& depth = frame.depth;
+  constexpr int kTile = FrameScratch::kTile, kHalfTile = kTile / 2;
+  for (int v0 = 0; v0 < intr.height; v0 += kTile)
+    for (int u0 = 0; u0 < intr.width; u0 += kTile) {
+      if (list_flat_tile(out, g, depth, u0, v0, kTile)) continue;
+      // A depth edge or the image border: quarter tiles, then the pixels of those that still span one.
+      for (int q = 0; q < 4; ++q) {
+        const int qu = u0 + (q & 1) * kHalfTile, qv = v0 + (q >> 1) * kHalfTile;
+        if (list_flat_tile(out, g, depth, qu, qv, kHalfTile)) continue;
+        const int v_end = qv + kHalfTile < intr.height ? qv + kHalfTile : intr.height;
+        const int u_end = qu + kHalfTile < intr.width ? qu + kHalfTile : intr.width;
+        for (int v = qv; v < v_end; ++v) {
+          const uint16_t* row = depth.row(v);
+          for (int u = qu; u < u_end; ++u)
+            if (row[u] != 0) list_pixel(out, g, depth, u, v, row[u]);
+        }
       }
     }
-  }
 }
 
 // Lists the surface bricks inside the frustum that are not listed yet.
