@@ -15,6 +15,7 @@
 #include "edgefuse/pipeline/localization_job.hpp"
 #include "edgefuse/hal/platform/clock/cpu_clock.hpp"
 #include "edgefuse/hal/platform/clock/monotonic_clock.hpp"
+#include "edgefuse/hal/platform/threads/pool_parallel_for.hpp"
 #include "edgefuse/io/localize_io.hpp"
 #include "edgefuse/runtime/calib_pose.hpp"
 
@@ -160,6 +161,10 @@ bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) 
   if (!init_models(err)) return false;
   print_setup();
   pool_.start(threads_);
+  // The localiser's voting and refinement run on the integration's workers too: step() integrates
+  // and tracks nothing while a localisation is busy and calib fuse is refused then, so the pool is
+  // idle and the localisation thread its only caller (same results for any thread count).
+  if (threads_ > 1) loc_.set_parallel(pool_parallel_for(pool_));
   localization_.start([](void* self) { static_cast<DevicePipeline*>(self)->run_localization(); }, this);
   return true;
 }
@@ -760,7 +765,8 @@ bool DevicePipeline::poll_localization(runtime::LocalizationOutcome& out) {
 
 // The localisation job on the map, as the runtime reports it. No heap.
 void DevicePipeline::run_localization() {
-  const double t0 = hal::thread_cpu_ms();
+  const double t0 = hal::thread_cpu_ms(), process0_ms = hal::process_cpu_ms();
+  const uint64_t wall0_us = hal::monotonic_clock().now_us();
   runtime::LocalizationOutcome& r = result_;
   r = runtime::LocalizationOutcome();
   r.stamp_us = mapper_.last_capture_us();
@@ -804,9 +810,15 @@ void DevicePipeline::run_localization() {
                 double(t.z()), double(q.x()), double(q.y()), double(q.z()), double(q.w()), double(o[i].score));
   }
   last_localize_cpu_ms_ = hal::thread_cpu_ms() - t0;
-  std::printf("localize: %zu frames in the map, surface %zu points, floor %s, %zu %s, %.0f ms CPU\n",
+  // Wall time, this thread's CPU and the process's (this thread, the pool's workers and whatever
+  // the main loop and the acquisition threads ran meanwhile): the CPU tells the work from the
+  // waiting on a loaded machine.
+  const double wall_ms = double(hal::monotonic_clock().now_us() - wall0_us) * 1e-3;
+  std::printf("localize: %zu frames in the map, surface %zu points, floor %s, %zu %s, %.0f ms wall on %d threads, "
+              "%.0f ms CPU on this thread, %.0f ms CPU\n",
               size_t(mapper_.map_frames()), report.surface_points, loc_.context().has_floor ? "found" : "not found",
-              report.count, request.segments ? "segments" : "objects", last_localize_cpu_ms_);
+              report.count, request.segments ? "segments" : "objects", wall_ms, threads_, last_localize_cpu_ms_,
+              hal::process_cpu_ms() - process0_ms);
   if (tracked() && sim_truth(cams_[order_[0]].index) != nullptr)
     std::printf("localize: tracking: %u lost frames, last pose %.2f mm from the backend's truth\n",
                 unsigned(lost_frames_), double(track_err_m_) * 1e3);

@@ -50,7 +50,8 @@
 // replay of a recording begins with the scan); step() runs in edgefused's main loop, takes each
 // camera's newest frame and integrates at most one frame per camera per call; the
 // localisation (hundreds of milliseconds) runs on its own thread so the console and the link stay
-// served; no frame is integrated while it reads the volume.
+// served; no frame is integrated while it reads the volume, so it spreads its voting and refinement
+// over the worker pool (the board's [tsdf] threads) meanwhile.
 #pragma once
 
 #include <cstdint>

@@ -11,6 +11,20 @@
 #include "ppf_math.hpp"
 
 namespace edgefuse {
+namespace {
+
+//! bin modulo kPpfAngleBins (non-negative). The voted angle is a difference of two angles in
+//! [-pi, pi], so its bin lies within one turn of the range and one add or subtract wraps it,
+//! without the two integer remainders per vote; anything else takes the remainder.
+//! \param bin the unwrapped angle bin  \return the bin in [0, kPpfAngleBins)
+inline int wrap_angle_bin(int bin) {
+  if (bin < 0) bin += kPpfAngleBins;
+  else if (bin >= kPpfAngleBins) bin -= kPpfAngleBins;
+  if (bin < 0 || bin >= kPpfAngleBins) bin = ((bin % kPpfAngleBins) + kPpfAngleBins) % kPpfAngleBins;
+  return bin;
+}
+
+}  // namespace
 
 bool Localizer::vote_reference(int m, std::size_t r, std::size_t ns, uint16_t* votes, PoseCandidate& c) const {
   const ModelInfo& info = b_.models[m];
@@ -37,8 +51,7 @@ bool Localizer::vote_reference(int m, std::size_t r, std::size_t ns, uint16_t* v
     for (uint32_t e = e0; e < e1; ++e) {
       if (entries[e].key != key) continue;
       float a = ppf::alpha_from_q(entries[e].alpha_q) - alpha_s;
-      int bin = floor_int((a + ppf::kPi) * bin_scale);
-      bin = ((bin % kPpfAngleBins) + kPpfAngleBins) % kPpfAngleBins;
+      const int bin = wrap_angle_bin(floor_int((a + ppf::kPi) * bin_scale));
       uint16_t& v = votes[std::size_t(entries[e].ref) * kPpfAngleBins + std::size_t(bin)];
       if (v < 65535) ++v;
     }

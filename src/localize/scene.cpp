@@ -60,6 +60,7 @@ void Localizer::build_grid(float cell_m) {
     const Vec3f& p = b_.scene[i].p;
     const uint32_t h =
         grid_hash(floor_int(p.x() * grid_inv_), floor_int(p.y() * grid_inv_), floor_int(p.z() * grid_inv_));
+    b_.grid_points[buckets[h]] = p;
     b_.grid_index[buckets[h]++] = uint32_t(i);
   }
   for (uint32_t k = kGridBuckets; k > 0; --k) buckets[k] = buckets[k - 1];
@@ -67,40 +68,68 @@ void Localizer::build_grid(float cell_m) {
 }
 
 int32_t Localizer::nearest(const Vec3f& q, float radius_m, float& dist2) const {
-  const int32_t cx = floor_int(q.x() * grid_inv_), cy = floor_int(q.y() * grid_inv_), cz = floor_int(q.z() * grid_inv_);
+  const CellPos cp = cell_pos(q, grid_inv_);
+  const int32_t cx = cp.c[0], cy = cp.c[1], cz = cp.c[2];
   const int k = int(std::ceil(radius_m * grid_inv_));
   float best = radius_m * radius_m;
-  int32_t best_i = -1;
+  // The best candidate's slot in grid order: the positions are read from grid_points (contiguous
+  // per cell) and the scene index only to break a tie and for the answer.
+  constexpr uint32_t kNone = ~0u;
+  uint32_t best_e = kNone;
   // Rings of cells by Chebyshev distance; a point in ring R+1 is at least R cells away, so the
-  // search stops as soon as the best distance is within that.
+  // search stops as soon as the best distance is within that. Within the rings, a cell whose box
+  // is farther than the best distance so far is not read (its bucket lookup is the cost: most of
+  // the 26 neighbours of a query near the surface are).
   for (int ring = 0; ring <= k; ++ring) {
-    for (int dz = -ring; dz <= ring; ++dz)
+    for (int dz = -ring; dz <= ring; ++dz) {
+      const float gz2 = cell_gap2(cp.f[2], dz, grid_cell_m_);
+      if (gz2 > best) continue;
       for (int dy = -ring; dy <= ring; ++dy) {
+        const float gyz2 = gz2 + cell_gap2(cp.f[1], dy, grid_cell_m_);
+        if (gyz2 > best) continue;
         const bool face = dz == -ring || dz == ring || dy == -ring || dy == ring;
         for (int dx = -ring; dx <= ring; dx += (face || ring == 0) ? 1 : 2 * ring) {
+          if (gyz2 + cell_gap2(cp.f[0], dx, grid_cell_m_) > best) continue;
           const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
-          for (uint32_t j = b_.grid_buckets[h]; j < b_.grid_buckets[h + 1]; ++j) {
-            const uint32_t i = b_.grid_index[j];
-            const float d2 = (b_.scene[i].p - q).squaredNorm();
-            if (d2 < best || (d2 == best && best_i >= 0 && int32_t(i) < best_i)) {
+          const uint32_t e1 = b_.grid_buckets[h + 1];
+          for (uint32_t e = b_.grid_buckets[h]; e < e1; ++e) {
+            const float d2 = (b_.grid_points[e] - q).squaredNorm();
+            // Equal distance: the lower scene index wins, whatever order the cells come in.
+            if (d2 < best || (d2 == best && best_e != kNone && b_.grid_index[e] < b_.grid_index[best_e])) {
               best = d2;
-              best_i = int32_t(i);
+              best_e = e;
             }
           }
         }
       }
+    }
     const float reach = float(ring) * grid_cell_m_;
-    if (best_i >= 0 && best <= reach * reach) break;
+    if (best_e != kNone && best <= reach * reach) break;
   }
   dist2 = best;
-  return best_i;
+  return best_e == kNone ? -1 : int32_t(b_.grid_index[best_e]);
 }
 
 void Localizer::for_each_within(const Vec3f& q, float radius_m, int32_t label) const {
+  // The labels do not depend on the order of the visit, so the cells whose box lies beyond the
+  // radius are skipped without reading their buckets.
   const float r2 = radius_m * radius_m;
-  for_cube_neighbours(b_, grid_inv_, int(std::ceil(radius_m * grid_inv_)), q, [&](uint32_t i) {
-    if (b_.labels[i] == 0 && (b_.scene[i].p - q).squaredNorm() <= r2) b_.labels[i] = label;
-  });
+  const int k = int(std::ceil(radius_m * grid_inv_));
+  const CellPos cp = cell_pos(q, grid_inv_);
+  for (int dz = -k; dz <= k; ++dz) {
+    const float gz2 = cell_gap2(cp.f[2], dz, grid_cell_m_);
+    for (int dy = -k; dy <= k && gz2 <= r2; ++dy) {
+      const float gyz2 = gz2 + cell_gap2(cp.f[1], dy, grid_cell_m_);
+      for (int dx = -k; dx <= k && gyz2 <= r2; ++dx) {
+        if (gyz2 + cell_gap2(cp.f[0], dx, grid_cell_m_) > r2) continue;
+        const uint32_t h = grid_hash(cp.c[0] + dx, cp.c[1] + dy, cp.c[2] + dz);
+        for (uint32_t e = b_.grid_buckets[h]; e < b_.grid_buckets[h + 1]; ++e) {
+          const uint32_t i = b_.grid_index[e];
+          if ((b_.grid_points[e] - q).squaredNorm() <= r2 && b_.labels[i] == 0) b_.labels[i] = label;
+        }
+      }
+    }
+  }
 }
 
 std::size_t Localizer::grow_component(std::size_t seed, float radius_m, uint32_t* visited, std::size_t tail) const {

@@ -16,10 +16,43 @@ inline uint32_t grid_hash(int32_t x, int32_t y, int32_t z) {
   return (uint32_t(x) * 73856093u ^ uint32_t(y) * 19349663u ^ uint32_t(z) * 83492791u) & (kGridBuckets - 1);
 }
 
-//! Calls f(j) for every scene point j hashed into the cells within k cells (per axis) of p's cell;
-//! candidates only (hash collisions included): the caller checks the distance.
+//! A query's grid cell and its position inside it.
+struct CellPos {
+  int32_t c[3];  //!< cell per axis: floor(x / cell), as build_grid files the points
+  float f[3];    //!< position inside the cell per axis, in cells ([0, 1))
+};
+
+//! \param q query point  \param grid_inv 1 / cell edge  \return q's cell and position in it
+inline CellPos cell_pos(const Vec3f& q, float grid_inv) {
+  CellPos cp;
+  for (int a = 0; a < 3; ++a) {
+    const float g = q[a] * grid_inv;
+    cp.c[a] = floor_int(g);
+    cp.f[a] = g - float(cp.c[a]);
+  }
+  return cp;
+}
+
+//! Allowance for the rounding of the cell a point is filed under (floor(x / cell) in float): a
+//! point may lie this far outside its cell's box. Far above the float error at metres (< 1 um).
+inline constexpr float kCellBoxMarginM = 1e-5f;
+
+//! Squared distance along one axis from a query to the cells d cells away, less kCellBoxMarginM:
+//! never more than the distance to a point filed there, so a cell whose summed gaps exceed the
+//! best squared distance so far holds no nearer or equally near point.
+//! \param f the query's position in its cell (cells)  \param d cell offset  \param cell_m cell edge
+//! \return squared gap in m^2 (0 for the query's own row)
+inline float cell_gap2(float f, int d, float cell_m) {
+  const float cells = d > 0 ? float(d) - f : (d < 0 ? f - float(d + 1) : 0.0f);
+  const float gap_m = cells * cell_m - kCellBoxMarginM;
+  return gap_m > 0 ? gap_m * gap_m : 0.0f;
+}
+
+//! Calls f(j, position of j) for every scene point j hashed into the cells within k cells (per
+//! axis) of p's cell; candidates only (hash collisions included): the caller checks the distance.
 //! \param b the localiser's buffers  \param grid_inv 1 / cell edge  \param k cells each side
-//! \param p query point  \param f called with each candidate's scene index
+//! \param p query point
+//! \param f called with each candidate's scene index and its position (read in grid order)
 template <typename F>
 inline void for_cube_neighbours(const LocalizeBuffers& b, float grid_inv, int k, const Vec3f& p, F&& f) {
   const int32_t cx = floor_int(p.x() * grid_inv), cy = floor_int(p.y() * grid_inv), cz = floor_int(p.z() * grid_inv);
@@ -27,7 +60,7 @@ inline void for_cube_neighbours(const LocalizeBuffers& b, float grid_inv, int k,
     for (int dy = -k; dy <= k; ++dy)
       for (int dx = -k; dx <= k; ++dx) {
         const uint32_t h = grid_hash(cx + dx, cy + dy, cz + dz);
-        for (uint32_t e = b.grid_buckets[h]; e < b.grid_buckets[h + 1]; ++e) f(b.grid_index[e]);
+        for (uint32_t e = b.grid_buckets[h]; e < b.grid_buckets[h + 1]; ++e) f(b.grid_index[e], b.grid_points[e]);
       }
 }
 
@@ -62,8 +95,8 @@ inline std::size_t grow_within(const LocalizeBuffers& b, float grid_inv, float r
   const int k = int(std::ceil(radius_m * grid_inv));
   for (std::size_t head = start; head < tail; ++head) {
     const Vec3f p = b.scene[b.queue[head]].p;
-    for_cube_neighbours(b, grid_inv, k, p, [&](uint32_t j) {
-      if ((b.scene[j].p - p).squaredNorm() <= r2 && claim(j)) b.queue[tail++] = j;
+    for_cube_neighbours(b, grid_inv, k, p, [&](uint32_t j, const Vec3f& pj) {
+      if ((pj - p).squaredNorm() <= r2 && claim(j)) b.queue[tail++] = j;
     });
   }
   return tail;

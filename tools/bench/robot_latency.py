@@ -3,9 +3,11 @@
 bin_rig_a rig set at its true poses; over the text port a client sends CAPTURE (the replay starts),
 waits on the console until the recording's last frame was integrated (or dropped), then sends DETECT
 and times DETECT -> its reply (the localisation of the whole map), then NEXT round trips. Each run
-starts a new edgefused; the figures are medians over the runs. edgefused's own figure for the
-localisation (its `localize: ... ms CPU` line, the localisation thread's CPU time) is printed beside
-the wall time, to tell the work from the waiting on a loaded machine.
+starts a new edgefused; the figures are medians over the runs. edgefused's own figures for the
+localisation (its `localize: ... ms wall on N threads, T ms CPU on this thread, C ms CPU` line: the
+localisation's wall time, the localisation thread's CPU and the process's CPU meanwhile, i.e. with
+the worker pool's) are printed beside the DETECT time, to tell the work from the waiting on a
+loaded machine.
 
 usage: robot_latency.py EDGEFUSED DATA_DIR [--runs N] [--replay-speed S] [--work DIR] [--set KEY=VALUE ...]
   --runs N          edgefused runs (default 3)
@@ -80,11 +82,15 @@ def one_run(args, k):
     d.send_signal(signal.SIGTERM)
     d.wait(timeout=30)
     log.seek(0)
-    cpu = [float(x) for x in re.findall(r"^localize: .* (\d+) ms CPU$", log.read(), re.M)]
+    text = log.read()
+    cpu = [float(x) for x in re.findall(r"^localize: .* (\d+) ms CPU$", text, re.M)]
+    thread = [float(x) for x in re.findall(r"^localize: .* (\d+) ms CPU on this thread", text, re.M)]
+    wall = [float(x) for x in re.findall(r"^localize: .* (\d+) ms wall on", text, re.M)]
     load = os.getloadavg()[0]
-    print("run %d: %d frames (%d dropped); DETECT -> %s in %.0f ms (again: %s in %.0f ms); localisation thread "
-          "CPU %s ms; NEXT median %.2f ms; load %.1f" %
-          (k, frames, drops, r, detect_ms, r2, detect2_ms, "/".join("%.0f" % c for c in cpu),
+    joined = lambda v: "/".join("%.0f" % c for c in v) or "-"
+    print("run %d: %d frames (%d dropped); DETECT -> %s in %.0f ms (again: %s in %.0f ms); localisation "
+          "CPU %s ms (its thread %s ms, wall %s ms); NEXT median %.2f ms; load %.1f" %
+          (k, frames, drops, r, detect_ms, r2, detect2_ms, joined(cpu), joined(thread), joined(wall),
            statistics.median(nexts), load), flush=True)
     return detect_ms, detect2_ms, cpu, statistics.median(nexts), load
 
@@ -106,7 +112,7 @@ def main():
     cpu = statistics.median(c for r in res for c in r[2][:1]) if any(r[2] for r in res) else float("nan")
     nxt = statistics.median(r[3] for r in res)
     print("median over %d runs: DETECT -> reply %.0f ms after the last frame (target 300 ms: %s); DETECT again on "
-          "the same map %.0f ms; localisation thread CPU %.0f ms; NEXT round trip %.2f ms; load average %.1f..%.1f"
+          "the same map %.0f ms; localisation CPU %.0f ms; NEXT round trip %.2f ms; load average %.1f..%.1f"
           % (len(res), first, "met" if first <= 300 else "missed", again, cpu, nxt, min(r[4] for r in res),
              max(r[4] for r in res)))
 

@@ -36,6 +36,9 @@ struct LocalizeBuffers {
   uint64_t* scratch = nullptr;            //!< 2 * scene_points_max (sort keys; model sampling)
   uint32_t* grid_index = nullptr;         //!< scene_points_max
   uint32_t* grid_buckets = nullptr;       //!< kGridBuckets + 1
+  //! scene_points_max: the scene positions in grid_index order, so that a cell's candidates are
+  //! read from contiguous memory (grid_points[e] == scene[grid_index[e]].p)
+  Vec3f* grid_points = nullptr;
   uint32_t* sample = nullptr;             //!< scene_points_max
   int32_t* labels = nullptr;              //!< scene_points_max
   uint32_t* queue = nullptr;              //!< scene_points_max
