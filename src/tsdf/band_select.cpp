@@ -3,10 +3,12 @@
 // A voxel is written only where eq. (1) gives d > -rho, and it carries information only in the
 // truncation band or where it may undo a surface. So instead of every brick in the frustum (most of
 // them free space in front of the surface, or behind it), the list holds
-//   - the bricks around each pixel's measurement: the region whose voxels take that pixel as their
-//     nearest one (its image cell) between (lowest depth they may interpolate) - trunc - free
-//     margin and (highest) + rho; the brick loop then updates their voxels, band and free alike.
-//     The free margin (TsdfParams::free_margin_m, 2 trunc by default) keeps the space just in
+//   - the bricks around each pixel's measurement (kBrickBand): the region whose voxels take that
+//     pixel as their nearest one (its image cell) between (lowest depth they may interpolate) -
+//     trunc and (highest) + rho; the brick loop updates all their voxels, band and free alike;
+//   - in front of that, the free margin (TsdfParams::free_margin_m, 2 trunc by default): bricks
+//     listed only there get their +1 samples where the frame sees them free with every pixel
+//     valid (no voxel loop: none of their voxels is in the band). This keeps the space just in
 //     front of surfaces observed, which the localiser's verification reads (measured on bin_rig_a
 //     with tracked poses: without it a bracket hypothesis claimed a box's place);
 //   - every brick holding surface (kBrickSurface) inside the frustum, so that a surface the
@@ -34,14 +36,15 @@ struct BrickLister {
   std::size_t count;
   int nb;
 
-  void add(int bx, int by, int bz) {
+  //! Lists brick (bx, by, bz) once; `band` marks it kBrickBand (its voxels all go through the
+  //! brick loop), else it stays margin-only unless some other region lists it as band.
+  void add(int bx, int by, int bz, bool band) {
     const std::size_t b = (std::size_t(bz) * nb + std::size_t(by)) * nb + std::size_t(bx);
-    if (flags[b] & kBrickListed) return;
-    flags[b] |= kBrickListed;
-    list[count++] = uint32_t(b);
+    if (!(flags[b] & kBrickListed)) list[count++] = uint32_t(b);
+    flags[b] |= band ? uint8_t(kBrickListed | kBrickBand) : uint8_t(kBrickListed);
   }
   //! Lists every brick of the box [lo, hi] (brick coordinates, clipped to the volume).
-  void add_box(const int lo[3], const int hi[3]) {
+  void add_box(const int lo[3], const int hi[3], bool band) {
     int a[3], b[3];
     for (int k = 0; k < 3; ++k) {
       a[k] = lo[k] < 0 ? 0 : lo[k];
@@ -50,7 +53,7 @@ struct BrickLister {
     }
     for (int z = a[2]; z <= b[2]; ++z)
       for (int y = a[1]; y <= b[1]; ++y)
-        for (int x = a[0]; x <= b[0]; ++x) add(x, y, z);
+        for (int x = a[0]; x <= b[0]; ++x) add(x, y, z, band);
   }
 };
 
@@ -79,8 +82,9 @@ struct BandGeometry {
   Vec3f centre;        //!< sensor centre in brick coordinates
   float inv_fx, inv_fy, cx, cy;
   float inv_scale;     //!< raw depth -> metres
-  float front_m;       //!< listed in front of the lowest depth: trunc + free margin
-  float rho_m;         //!< listed behind the highest depth
+  float trunc_m;       //!< the band reaches this far in front of the lowest depth
+  float margin_m;      //!< free margin listed in front of the band (margin-only bricks)
+  float rho_m;         //!< the band reaches this far behind the highest depth
   float half_cell;     //!< half a pixel's diagonal in brick units per metre of z
   float z_min, z_max;  //!< pixels outside this z-depth range list nothing
   uint32_t jump_raw;   //!< the frame's depth jump in raw units
@@ -98,37 +102,51 @@ inline void grow(Vec3f& lo, Vec3f& hi, const Vec3f& p) {
   hi = hi.cwiseMax(p);
 }
 
-// Lists the bricks of the box [lo, hi] (brick coordinates) widened by margin.
-inline void list_region(BrickLister& out, const Vec3f& lo, const Vec3f& hi, float margin) {
+// Lists the bricks of the region between z-depths z0 and z1 (z0 <= z1) over the image rectangle
+// [u0, u1] x [v0, v1], widened by `widen` brick units: the region is convex, so the bounding box
+// of its corners holds it.
+void list_chunk(BrickLister& out, const BandGeometry& g, float u0, float u1, float v0, float v1, float z0, float z1,
+                float widen, bool band) {
+  Vec3f lo = g.at(u0, v0, z0), hi = lo;
+  for (const float z : {z0, z1})
+    for (const float u : {u0, u1})
+      for (const float v : {v0, v1}) grow(lo, hi, g.at(u, v, z));
   int box_lo[3], box_hi[3];
   for (int k = 0; k < 3; ++k) {
-    box_lo[k] = int(std::floor(lo[k] - margin));
-    box_hi[k] = int(std::floor(hi[k] + margin));
+    box_lo[k] = int(std::floor(lo[k] - widen));
+    box_hi[k] = int(std::floor(hi[k] + widen));
   }
-  out.add_box(box_lo, box_hi);
+  out.add_box(box_lo, box_hi, band);
 }
 
-// Lists the region of pixel (u, v) holding raw depth `raw`: its ray from the lowest depth its
-// voxels may read minus front_m to the highest plus rho, widened by half a pixel.
+// Lists the band (from the lowest depth lo_m minus trunc to the highest hi_m plus rho) and, in
+// front of it, the free margin (margin-only) of the image rectangle [u0, u1] x [v0, v1].
+void list_span(BrickLister& out, const BandGeometry& g, float u0, float u1, float v0, float v1, float lo_m, float hi_m,
+               float widen_per_m) {
+  const float band_near = std::fmax(lo_m - g.trunc_m, 0.0f), band_far = hi_m + g.rho_m;
+  const float widen = widen_per_m * band_far;
+  list_chunk(out, g, u0, u1, v0, v1, band_near, band_far, widen, true);
+  const float margin_near = std::fmax(band_near - g.margin_m, 0.0f);
+  if (margin_near < band_near) list_chunk(out, g, u0, u1, v0, v1, margin_near, band_near, widen, false);
+}
+
+// Lists the region of pixel (u, v) holding raw depth `raw`: its ray over the depths its voxels
+// may read, widened by half a pixel.
 void list_pixel(BrickLister& out, const BandGeometry& g, const ImageView<const uint16_t>& depth, int u, int v,
                 uint32_t raw) {
   const float z = float(raw) * g.inv_scale;
   if (z < g.z_min || z > g.z_max) return;
   uint32_t lo, hi;
   neighbourhood_range(depth, u, v, raw, g.jump_raw, lo, hi);
-  const float z_near = std::fmax(float(lo) * g.inv_scale - g.front_m, 0.0f);
-  const float z_far = float(hi) * g.inv_scale + g.rho_m;
-  Vec3f a = g.at(float(u), float(v), z_near), b = a;
-  grow(a, b, g.at(float(u), float(v), z_far));
-  list_region(out, a, b, g.half_cell * z_far);
+  list_span(out, g, float(u), float(u), float(v), float(v), float(lo) * g.inv_scale, float(hi) * g.inv_scale,
+            g.half_cell);
 }
 
 // Lists the region of the side x side tile at pixel (u0, v0) as one box when its valid depths (with the
 // pixels around it that its voxels may interpolate from) span at most flat_raw; returns false
 // otherwise (depth edges: pixel by pixel instead). Pixels without depth list nothing: a voxel
-// whose nearest pixel has none is not updated. The box holds the image rectangle
-// of the tile's pixels (half a pixel around them) between the lowest depth minus front_m and the
-// highest plus rho: it is convex, so its 8 corners bound it.
+// whose nearest pixel has none is not updated. The box holds the image rectangle of the tile's
+// pixels (half a pixel around them) over the depths its voxels may read.
 bool list_flat_tile(BrickLister& out, const BandGeometry& g, const ImageView<const uint16_t>& depth, int u0, int v0,
                     int side) {
   const int u1 = u0 + side - 1, v1 = v0 + side - 1;
@@ -148,13 +166,7 @@ bool list_flat_tile(BrickLister& out, const BandGeometry& g, const ImageView<con
   if (hi - lo > g.flat_raw) return false;
   const float near_lo = float(lo) * g.inv_scale, far_hi = float(hi) * g.inv_scale;
   if (near_lo < g.z_min || far_hi > g.z_max) return false;
-  const float z_near = std::fmax(near_lo - g.front_m, 0.0f), z_far = far_hi + g.rho_m;
-  const float us[2] = {float(u0) - 0.5f, float(u1) + 0.5f}, vs[2] = {float(v0) - 0.5f, float(v1) + 0.5f};
-  Vec3f box_lo = g.at(us[0], vs[0], z_near), box_hi = box_lo;
-  for (const float z : {z_near, z_far})
-    for (const float u : us)
-      for (const float v : vs) grow(box_lo, box_hi, g.at(u, v, z));
-  list_region(out, box_lo, box_hi, 0.0f);
+  list_span(out, g, float(u0) - 0.5f, float(u1) + 0.5f, float(v0) - 0.5f, float(v1) + 0.5f, near_lo, far_hi, 0.0f);
   return true;
 }
 
@@ -174,7 +186,8 @@ void list_band(BrickLister& out, const TsdfVolume& volume, const PinholeIntrinsi
   g.cx = intr.cx;
   g.cy = intr.cy;
   g.inv_scale = 1.0f / intr.depth_scale;
-  g.front_m = p.trunc_m + (p.free_margin_m > 0.0f ? p.free_margin_m : 2.0f * p.trunc_m);
+  g.trunc_m = p.trunc_m;
+  g.margin_m = p.free_margin_m > 0.0f ? p.free_margin_m : 2.0f * p.trunc_m;
   g.rho_m = p.weight.rho_m;
   g.half_cell = 0.71f / (intr.fx < intr.fy ? intr.fx : intr.fy) / brick_m;
   g.z_min = intr.min_range_m - jump_m;
@@ -218,7 +231,7 @@ void list_surface(BrickLister& out, const TsdfVolume& volume, const PinholeIntri
     volume.brick_coords(b, bx, by, bz);
     const Vec3f c = T_cam_world * (volume.origin_m() + Vec3f(float(bx), float(by), float(bz)) * (kBrickSide * vs) + half);
     if (!planes.may_see(c, radius, far_z)) continue;
-    out.add(bx, by, bz);
+    out.add(bx, by, bz, true);
   }
 }
 

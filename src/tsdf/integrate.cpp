@@ -429,7 +429,10 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
       continue;
     }
     // A mixed brick: classify its eight 4^3 blocks, so that only those the surface band passes
-    // through are projected voxel by voxel.
+    // through are projected voxel by voxel. A brick listed only for the free margin in front of
+    // the band (select_band_bricks) holds no band voxel: its blocks that need the voxel loop would
+    // only get +1 samples between depth holes, and are left alone.
+    const bool margin_only = (flags[brick] & (kBrickListed | kBrickBand)) == kBrickListed;
     for (int sb = 0; sb < 8; ++sb) {
       const int off[3] = {(sb & 1) * kHalf, ((sb >> 1) & 1) * kHalf, ((sb >> 2) & 1) * kHalf};
       Real cb[3];
@@ -445,6 +448,7 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
         observed = true;
         continue;
       }
+      if (margin_only) continue;
       Real pz[3] = {cb[0], cb[1], cb[2]};
       for (int lz = 0; lz < kHalf; ++lz) {
         Real py[3] = {pz[0], pz[1], pz[2]};
@@ -559,7 +563,7 @@ void finish_integration(TsdfVolume& volume, std::size_t count) {
   const int nb = volume.bricks_per_axis();
   for (std::size_t i = 0; i < count; ++i) {
     const uint32_t brick = list[i];
-    flags[brick] &= uint8_t(~kBrickListed);
+    flags[brick] &= uint8_t(~(kBrickListed | kBrickBand));
     if ((flags[brick] & (kBrickSurface | kBrickDilated)) != kBrickSurface) continue;
     flags[brick] |= kBrickDilated;
     int bx, by, bz;

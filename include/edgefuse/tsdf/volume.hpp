@@ -40,6 +40,8 @@ enum BrickFlag : uint8_t {
   //! Listed for the frame being integrated: set by select_band_bricks, cleared by
   //! finish_integration (integrate.hpp); never set outside an integration.
   kBrickListed = 16,
+  //! With kBrickListed: the brick may hold band voxels of this frame (else only its free margin).
+  kBrickBand = 32,
 };
 
 //! Views of the static buffers of one volume; sizes are for capacity_dim^3 voxels.
