@@ -11,7 +11,8 @@ For each data set (same frames, poses, voxel, truncation) it runs
   * Open3D's legacy `UniformTSDFVolume` over edgefuse's cube (integration only: it has no raycast);
 and prints ms per frame, the ratios (peer / edgefuse: above 1 = edgefuse faster), the distance
 between edgefuse's and VoxelBlockGrid's clouds (median point-to-plane both ways, where both see), and the memory
-each space holds. Open3D runs in a child process per thread count (OMP_NUM_THREADS must be set
+each space holds, and how many voxels VoxelBlockGrid integrates per frame. Open3D runs in a child
+process per thread count (OMP_NUM_THREADS must be set
 before OpenMP starts).
 
   /usr/bin/python3 tools/bench/space_vs_open3d.py [--sets xtion,kitchen,tum] [--threads 1,2]
@@ -137,10 +138,11 @@ def o3d_worker(args):
     vbg = o3d.t.geometry.VoxelBlockGrid(attr_names=names, attr_dtypes=dtypes, attr_channels=chans,
                                         voxel_size=args.voxel, block_resolution=args.block, block_count=args.blocks,
                                         device=o3d.core.Device("CPU:0"))
-    integ_wall, integ_cpu = [], []
+    integ_wall, integ_cpu, frame_blocks = [], [], []
     for i, (d, E) in enumerate(zip(depths, extr)):
         c0, t0 = time.process_time(), time.perf_counter()
         blocks = vbg.compute_unique_block_coordinates(d, K, E, scale, dmax, mult)
+        frame_blocks.append(int(blocks.shape[0]))
         if args.colour:
             vbg.integrate(blocks, d, colours[i], K, K, E, scale, dmax, mult)
         else:
@@ -181,7 +183,7 @@ def o3d_worker(args):
             legacy["cpu"].append((time.process_time() - c0) * 1e3)
     with open(args.json, "w") as f:
         json.dump({"integ_wall": integ_wall, "integ_cpu": integ_cpu, "cast_wall": cast_wall, "cast_cpu": cast_cpu,
-                   "active_blocks": active, "space_bytes": active * args.block ** 3 * vbytes, "legacy": legacy,
+                   "active_blocks": active, "frame_blocks": frame_blocks, "space_bytes": active * args.block ** 3 * vbytes, "legacy": legacy,
                    "cast_size": f"{w}x{h}"}, f)
     return 0
 
@@ -286,14 +288,14 @@ def main():
         row = {"set": ds["label"], "frames": len(ds["frames"]), "voxel": voxel, "trunc": trunc,
                "colour": ef["colour"], "cast": ef["cast_size"], "ef": ef, "o3": o3, "dist_mm": [d * 1e3 for d in dist]}
         rows.append(row)
-        report(row, threads)
+        report(row, threads, args.block)
     with open(out / "results.json", "w") as f:
         json.dump(rows, f, indent=1, default=str)
     print(f"\nresults: {out / 'results.json'}")
     return 0
 
 
-def report(r, threads):
+def report(r, threads, block):
     ef, o3 = r["ef"], r["o3"]
     t1 = threads[0]
     vbg_i = med(o3[t1]["integ_cpu"])
@@ -321,6 +323,8 @@ def report(r, threads):
           f"{r['dist_mm'][1]:.2f} mm (half a voxel: {r['voxel'] * 500:g} mm)")
     print(f"space memory: edgefuse {ef['space_bytes'] / 2**20:.1f} MiB ({ef['dim']}^3 cube)  VoxelBlockGrid "
           f"{o3[t1]['space_bytes'] / 2**20:.1f} MiB in use ({o3[t1]['active_blocks']} blocks)")
+    fb = statistics.median(o3[t1].get("frame_blocks") or [0])
+    print(f"VoxelBlockGrid integrates {fb:.0f} blocks per frame (median): {fb * block ** 3 / 1e6:.2f} M voxels")
 
 
 if __name__ == "__main__":
