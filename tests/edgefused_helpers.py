@@ -6,11 +6,16 @@ process's VmData, and the checks' record."""
 import atexit
 import os
 import re
-import select
 import shlex
 import subprocess
-import termios
+import sys
 import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools", "robot"))
+import console  # noqa: E402
+
+# The tests open the console pty as the robot tools do.
+open_raw = console.open_raw
 
 # Waits (not tolerances) are multiplied by this under an emulator (emulation()).
 TIME_FACTOR = 1.0
@@ -78,32 +83,10 @@ def wait_started(proc, log, timeout_s):
     return info
 
 
-def open_raw(dev):
-    """Opens a console pty raw (8N1, no echo, no line editing)."""
-    fd = os.open(dev, os.O_RDWR | os.O_NOCTTY)
-    a = termios.tcgetattr(fd)
-    a[0] = a[1] = a[3] = 0
-    a[2] = termios.CS8 | termios.CREAD | termios.CLOCAL
-    a[6][termios.VMIN] = 1
-    a[6][termios.VTIME] = 0
-    termios.tcsetattr(fd, termios.TCSANOW, a)
-    return fd
-
-
 def command(fd, line, timeout=10.0):
     """Sends a console line, returns the reply up to and including OK / ERR (or what came by timeout,
     in seconds on the host: TIME_FACTOR times that under an emulator)."""
-    os.write(fd, (line + "\r").encode())
-    got = b""
-    end = time.monotonic() + timeout * TIME_FACTOR
-    while time.monotonic() < end:
-        r, _, _ = select.select([fd], [], [], 0.1)
-        if r:
-            got += os.read(fd, 4096)
-            lines = got.decode(errors="replace").split("\r\n")
-            if any(l == "OK" or l.startswith("ERR ") for l in lines[:-1]):
-                break
-    return got.decode(errors="replace")
+    return console.command(fd, line, timeout * TIME_FACTOR)
 
 
 def vm_data_kib(pid):
