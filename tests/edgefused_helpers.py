@@ -1,12 +1,13 @@
 """Helpers shared by the edgefused end-to-end tests (edgefused_e2e.py, edgefused_fusion_e2e.py, the
 robot tests): the options of a run under an emulator, the programs they start (stopped when the
 test ends, also on an exception), edgefused's start-up lines, the console pseudo-terminal in raw
-mode, one console command and its reply, waiting for a replayed recording to be mapped, the
+mode, one console command and its reply, a line client of the robot's text port, waiting for a replayed recording to be mapped, the
 process's VmData, and the checks' record."""
 import atexit
 import os
 import re
 import shlex
+import socket
 import subprocess
 import sys
 import time
@@ -87,6 +88,32 @@ def command(fd, line, timeout=10.0):
     """Sends a console line, returns the reply up to and including OK / ERR (or what came by timeout,
     in seconds on the host: TIME_FACTOR times that under an emulator)."""
     return console.command(fd, line, timeout * TIME_FACTOR)
+
+
+class TextClient:
+    """A raw line client of edgefused's robot text port on loopback: the tests check the replies'
+    exact text, so unlike tools/robot/edgefuse_robot.py it neither parses nor raises on ERR."""
+
+    def __init__(self, port, timeout_s):
+        """Connects; timeout_s (times TIME_FACTOR under an emulator) bounds the connect and each recv."""
+        self.s = socket.create_connection(("127.0.0.1", port), timeout=timeout_s * TIME_FACTOR)
+        self.s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.buf = b""
+
+    def line(self):
+        """The next reply line, without its newline."""
+        while b"\n" not in self.buf:
+            chunk = self.s.recv(4096)
+            if not chunk:
+                raise EOFError("the text port closed the connection")
+            self.buf += chunk
+        line, _, self.buf = self.buf.partition(b"\n")
+        return line.decode()
+
+    def ask(self, text):
+        """Sends one request line, returns its reply line."""
+        self.s.sendall(text.encode() + b"\n")
+        return self.line()
 
 
 def vm_data_kib(pid):

@@ -27,7 +27,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import check, emulation, failures, open_raw, popen, wait_recording_mapped, wait_started  # noqa: E402
+from edgefused_helpers import TextClient, check, emulation, failures, open_raw, popen, wait_recording_mapped, wait_started  # noqa: E402
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools", "robot"))
 from pose_math import angle_deg as quat_angle_deg, axis_angle, qmul as quat_mul  # noqa: E402
 
@@ -136,22 +136,12 @@ def matches(words, form):
     return got
 
 
-class Conn:
-    def __init__(self, port):
-        self.s = socket.create_connection(("127.0.0.1", port), timeout=120 * SLOW)
-        self.s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self.buf = b""
-        self.units, self.rotation = "m", "xyzw"
+class Conn(TextClient):
+    """A text-port connection that remembers the conventions the exchange set (UNITS, ROTATION)."""
 
-    def ask(self, text):
-        self.s.sendall(text.encode() + b"\n")
-        while b"\n" not in self.buf:
-            chunk = self.s.recv(4096)
-            if not chunk:
-                raise EOFError("the text port closed the connection")
-            self.buf += chunk
-        line, _, self.buf = self.buf.partition(b"\n")
-        return line.decode()
+    def __init__(self, port):
+        super().__init__(port, 120)
+        self.units, self.rotation = "m", "xyzw"
 
 
 def flange_values(units, rotation, template):
