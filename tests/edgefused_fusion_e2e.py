@@ -28,14 +28,13 @@ must lie at every object of objects.txt.
 import os
 import re
 import shutil
-import signal
 import subprocess
 import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import (check, command, emulation, failures, open_raw, popen, vm_data_kib,  # noqa: E402
-                               wait_recording_mapped, wait_started)
+from edgefused_helpers import (check, collect, command, emulation, failures, open_raw, popen,  # noqa: E402
+                               sigterm_and_wait, vm_data_kib, wait_recording_mapped, wait_started)
 
 EMU, SLOW = emulation(sys.argv)
 SIM_SCENE = "--no-sim-scene" not in sys.argv
@@ -81,12 +80,7 @@ def start(extra, logname):
 
 
 def stop(d, log, results):
-    d.send_signal(signal.SIGTERM)
-    try:
-        d.wait(timeout=30 * SLOW)
-    except subprocess.TimeoutExpired:
-        d.kill()
-        d.wait()
+    sigterm_and_wait(d, 30)
     log.seek(0)
     text = log.read()
     check(d.returncode == 0 and "stopped by SIGTERM after %d results" % results in text,
@@ -206,11 +200,7 @@ vm_first = vm_data_kib(d.pid)
 r = command(con, "localize")
 check(r.endswith("OK\r\n"), "console: localize: " + r.strip())
 t1 = time.monotonic()
-try:
-    out, err = listen.communicate(timeout=150 * SLOW)
-except subprocess.TimeoutExpired:
-    listen.kill()
-    out, err = listen.communicate()
+out, err = collect(listen, 150)
 print("second result arrived %.1f s after localize" % (time.monotonic() - t1))
 vm_second = vm_data_kib(d.pid)
 check(SANITIZED or (vm_first > 0 and vm_second == vm_first),
@@ -270,11 +260,7 @@ if "ready" in info:
                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(0.5)
     check(command(con, "scan start").endswith("OK\r\n"), "tracked: scan start")
-    try:
-        out, err = listen.communicate(timeout=200 * SLOW)
-    except subprocess.TimeoutExpired:
-        listen.kill()
-        out, err = listen.communicate()
+    out, err = collect(listen, 200)
     rows = [l.split(",") for l in out.strip().splitlines() if l[:1].isdigit()]
     check(listen.returncode == 0 and len(rows) > 0,
           "tracked: a result by the still-period trigger (%d rows; listen: %s)" % (len(rows), err.strip()))
@@ -349,11 +335,7 @@ if "ready" in info:
         frames = int(m.group(1)) if m else frames
     check(frames >= 30, "sim: %d frames integrated at the simulated rig's poses" % frames)
     check(command(con, "localize").endswith("OK\r\n"), "sim: localize")
-    try:
-        out, err = listen.communicate(timeout=150 * SLOW)
-    except subprocess.TimeoutExpired:
-        listen.kill()
-        out, err = listen.communicate()
+    out, err = collect(listen, 150)
     segs = [(float(r[3]), float(r[4])) for r in (l.split(",") for l in out.strip().splitlines() if l[:1].isdigit())
             if r[2] == "0"]
     print(out.strip())

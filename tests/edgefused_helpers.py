@@ -7,6 +7,7 @@ import atexit
 import os
 import re
 import shlex
+import signal
 import socket
 import subprocess
 import sys
@@ -65,6 +66,30 @@ def _kill_started():
         if p.poll() is None:
             p.kill()
             p.wait()
+
+
+def sigterm_and_wait(proc, timeout_s):
+    """Stops a program with SIGTERM, as systemd would, and waits timeout_s (times TIME_FACTOR);
+    kills it when it hangs, so the test goes on and reports the exit code (-9) as a failed check.
+    Returns the exit code."""
+    proc.send_signal(signal.SIGTERM)
+    try:
+        proc.wait(timeout=timeout_s * TIME_FACTOR)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+    return proc.returncode
+
+
+def collect(proc, timeout_s):
+    """(stdout, stderr) of a listener that should end by itself within timeout_s (times TIME_FACTOR);
+    one still running then is killed and what it printed is returned (the caller's checks judge its
+    exit code)."""
+    try:
+        return proc.communicate(timeout=timeout_s * TIME_FACTOR)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        return proc.communicate()
 
 
 def wait_started(proc, log, timeout_s):
