@@ -109,6 +109,19 @@ def wait_started(proc, log, timeout_s):
     return info
 
 
+def check_started(proc, log, info, keys, what):
+    """Checks that edgefused printed `ready` and the start-up lines keys (e.g. "robot", "console")
+    name. When it did not, the check fails with its log printed (the reason is there) and the
+    process is killed, so the caller can skip the run. Returns whether it started."""
+    if "ready" in info and all(k in info for k in keys):
+        return True
+    log.seek(0)
+    print(log.read())
+    check(False, what)
+    proc.kill()
+    return False
+
+
 def command(fd, line, timeout=10.0):
     """Sends a console line, returns the reply up to and including OK / ERR (or what came by timeout,
     in seconds on the host: TIME_FACTOR times that under an emulator)."""
