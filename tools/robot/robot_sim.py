@@ -45,7 +45,7 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import console  # noqa: E402
 from edgefuse_robot import RobotClient, RobotError  # noqa: E402
-from pose_math import axis_angle, compose, inverse, qmul, qnorm, slerp  # noqa: E402
+from pose_math import axis_angle, compose, interpolate, inverse, qmul, qnorm  # noqa: E402
 
 # The default mounting: the camera 96 mm out along the flange axis, 42 mm off it, turned 90 deg
 # about the flange axis and tilted 10 deg (a bracket on the gripper's side).
@@ -97,9 +97,8 @@ class Path:
                 lo = mid
             else:
                 hi = mid
-        (t0, (a, qa)), (t1, (b, qb)) = p[lo], p[hi]
-        s = (t - t0) / (t1 - t0)
-        return (tuple(x + s * (y - x) for x, y in zip(a, b)), slerp(qa, qb, s))
+        (t0, a), (t1, b) = p[lo], p[hi]
+        return interpolate(a, b, (t - t0) / (t1 - t0))
 
 
 class Errors:
