@@ -17,11 +17,10 @@ import signal
 import socket
 import subprocess
 import sys
-import termios
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import command, emulation, open_raw, popen, vm_data_kib, wait_started  # noqa: E402
+from edgefused_helpers import check, command, emulation, failures, open_raw, popen, vm_data_kib, wait_started  # noqa: E402
 
 EMU, SLOW = emulation(sys.argv)
 EDGEFUSED, EDGEFUSE, LISTEN_PY, WORK = sys.argv[1:5]
@@ -36,13 +35,6 @@ TRUTH = {
     2: ((0.475, 0.020, 0.045), (0.7071068, 0.0, 0.0, 0.7071068), 0.88),
     3: ((0.390, 0.110, 0.025), (0.0, 0.0, 0.0, 1.0), 0.61),
 }
-failures = []
-
-
-def check(cond, what):
-    print(("ok   " if cond else "FAIL ") + what, flush=True)
-    if not cond:
-        failures.append(what)
 
 
 def check_csv(text, who):

@@ -27,16 +27,14 @@ must lie at every object of objects.txt.
 """
 import os
 import re
-import select
 import shutil
-import signal
 import subprocess
 import sys
-import termios
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import command, emulation, open_raw, popen, vm_data_kib, wait_started  # noqa: E402
+from edgefused_helpers import (check, collect, command, emulation, failures, open_raw, popen,  # noqa: E402
+                               sigterm_and_wait, vm_data_kib, wait_recording_mapped, wait_started)
 
 EMU, SLOW = emulation(sys.argv)
 SIM_SCENE = "--no-sim-scene" not in sys.argv
@@ -59,13 +57,6 @@ TOL_MM, TOL_DEG = 5.0, 5.0
 # there the recording's 200 ms frames play at 4 s in both runs (on the host at 400 and 800 ms).
 # Measured there at a load of 9-12: no frame dropped at 4 s; at 2 s the known-pose run dropped 4.
 REPLAY_SPEED = (0.05, 0.05) if EMU else (0.5, 0.25)
-failures = []
-
-
-def check(cond, what):
-    print(("ok   " if cond else "FAIL ") + what, flush=True)
-    if not cond:
-        failures.append(what)
 
 
 def finish(text):
@@ -89,12 +80,7 @@ def start(extra, logname):
 
 
 def stop(d, log, results):
-    d.send_signal(signal.SIGTERM)
-    try:
-        d.wait(timeout=30 * SLOW)
-    except subprocess.TimeoutExpired:
-        d.kill()
-        d.wait()
+    sigterm_and_wait(d, 30)
     log.seek(0)
     text = log.read()
     check(d.returncode == 0 and "stopped by SIGTERM after %d results" % results in text,
@@ -153,21 +139,11 @@ check(command(con, "scan start").endswith("OK\r\n"), "console: scan start")
 # The recording is one scan: its 20 frames are integrated once each, then the camera reports the
 # end of the recording, the rig counts as still, and after localize.still_period_s (1 s) the
 # runtime localises by itself (result 0). Then `localize` on the console gives result 1.
-frames, status = 0, ""
 t0 = time.monotonic()
-drops = -1
-# The camera thread reports the end of the recording as soon as it has published the last frame;
-# the main loop integrates that frame a moment later (on a loaded machine, after the status
-# reply): wait until every frame is accounted for, integrated or dropped.
-while time.monotonic() < t0 + 120 * SLOW and ("end of recording" not in status or frames + drops < 20):
-    time.sleep(0.3)
-    status = command(con, "status")
-    m = re.search(r"frames (\d+)", status)
-    frames = int(m.group(1)) if m else frames
-    # Newest-frame policy: a frame is lost only when the main loop stalls for a whole frame period
-    # (200 ms at the set's 5 fps); then it is counted as a drop.
-    m = re.search(r"drops (\d+)", status)
-    drops = int(m.group(1)) if m else -1
+# Wait until every frame is accounted for, integrated or dropped (wait_recording_mapped). Newest-frame
+# policy: a frame is lost only when the main loop stalls for a whole frame period (200 ms at the
+# set's 5 fps); then it is counted as a drop.
+frames, drops, status = wait_recording_mapped(con, 20, 120 * SLOW)
 # Under an emulator a frame takes 1-2 s of the 4 s between frames, on two cores shared with other
 # tests: a few more frames are dropped there (the map is still checked by the results below).
 min_frames = 18 if not EMU else 14
@@ -224,11 +200,7 @@ vm_first = vm_data_kib(d.pid)
 r = command(con, "localize")
 check(r.endswith("OK\r\n"), "console: localize: " + r.strip())
 t1 = time.monotonic()
-try:
-    out, err = listen.communicate(timeout=150 * SLOW)
-except subprocess.TimeoutExpired:
-    listen.kill()
-    out, err = listen.communicate()
+out, err = collect(listen, 150)
 print("second result arrived %.1f s after localize" % (time.monotonic() - t1))
 vm_second = vm_data_kib(d.pid)
 check(SANITIZED or (vm_first > 0 and vm_second == vm_first),
@@ -288,11 +260,7 @@ if "ready" in info:
                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(0.5)
     check(command(con, "scan start").endswith("OK\r\n"), "tracked: scan start")
-    try:
-        out, err = listen.communicate(timeout=200 * SLOW)
-    except subprocess.TimeoutExpired:
-        listen.kill()
-        out, err = listen.communicate()
+    out, err = collect(listen, 200)
     rows = [l.split(",") for l in out.strip().splitlines() if l[:1].isdigit()]
     check(listen.returncode == 0 and len(rows) > 0,
           "tracked: a result by the still-period trigger (%d rows; listen: %s)" % (len(rows), err.strip()))
@@ -367,11 +335,7 @@ if "ready" in info:
         frames = int(m.group(1)) if m else frames
     check(frames >= 30, "sim: %d frames integrated at the simulated rig's poses" % frames)
     check(command(con, "localize").endswith("OK\r\n"), "sim: localize")
-    try:
-        out, err = listen.communicate(timeout=150 * SLOW)
-    except subprocess.TimeoutExpired:
-        listen.kill()
-        out, err = listen.communicate()
+    out, err = collect(listen, 150)
     segs = [(float(r[3]), float(r[4])) for r in (l.split(",") for l in out.strip().splitlines() if l[:1].isdigit())
             if r[2] == "0"]
     print(out.strip())

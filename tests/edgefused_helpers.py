@@ -1,16 +1,23 @@
 """Helpers shared by the edgefused end-to-end tests (edgefused_e2e.py, edgefused_fusion_e2e.py, the
 robot tests): the options of a run under an emulator, the programs they start (stopped when the
 test ends, also on an exception), edgefused's start-up lines, the console pseudo-terminal in raw
-mode, one console command and its reply, waiting for a replayed recording to be mapped, the
+mode, one console command and its reply, a line client of the robot's text port, waiting for a replayed recording to be mapped, the
 process's VmData, and the checks' record."""
 import atexit
 import os
 import re
-import select
 import shlex
+import signal
+import socket
 import subprocess
-import termios
+import sys
 import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools", "robot"))
+import console  # noqa: E402
+
+# The tests open the console pty as the robot tools do.
+open_raw = console.open_raw
 
 # Waits (not tolerances) are multiplied by this under an emulator (emulation()).
 TIME_FACTOR = 1.0
@@ -61,6 +68,30 @@ def _kill_started():
             p.wait()
 
 
+def sigterm_and_wait(proc, timeout_s):
+    """Stops a program with SIGTERM, as systemd would, and waits timeout_s (times TIME_FACTOR);
+    kills it when it hangs, so the test goes on and reports the exit code (-9) as a failed check.
+    Returns the exit code."""
+    proc.send_signal(signal.SIGTERM)
+    try:
+        proc.wait(timeout=timeout_s * TIME_FACTOR)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+    return proc.returncode
+
+
+def collect(proc, timeout_s):
+    """(stdout, stderr) of a listener that should end by itself within timeout_s (times TIME_FACTOR);
+    one still running then is killed and what it printed is returned (the caller's checks judge its
+    exit code)."""
+    try:
+        return proc.communicate(timeout=timeout_s * TIME_FACTOR)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        return proc.communicate()
+
+
 def wait_started(proc, log, timeout_s):
     """Reads edgefused's start-up lines from its log file (`console: /dev/pts/N`, `tcp: HOST:PORT`,
     `robot: HOST:PORT`, ... then `ready`) until `ready`, the process ends or timeout_s passes (times
@@ -78,32 +109,49 @@ def wait_started(proc, log, timeout_s):
     return info
 
 
-def open_raw(dev):
-    """Opens a console pty raw (8N1, no echo, no line editing)."""
-    fd = os.open(dev, os.O_RDWR | os.O_NOCTTY)
-    a = termios.tcgetattr(fd)
-    a[0] = a[1] = a[3] = 0
-    a[2] = termios.CS8 | termios.CREAD | termios.CLOCAL
-    a[6][termios.VMIN] = 1
-    a[6][termios.VTIME] = 0
-    termios.tcsetattr(fd, termios.TCSANOW, a)
-    return fd
+def check_started(proc, log, info, keys, what):
+    """Checks that edgefused printed `ready` and the start-up lines keys (e.g. "robot", "console")
+    name. When it did not, the check fails with its log printed (the reason is there) and the
+    process is killed, so the caller can skip the run. Returns whether it started."""
+    if "ready" in info and all(k in info for k in keys):
+        return True
+    log.seek(0)
+    print(log.read())
+    check(False, what)
+    proc.kill()
+    return False
 
 
 def command(fd, line, timeout=10.0):
     """Sends a console line, returns the reply up to and including OK / ERR (or what came by timeout,
     in seconds on the host: TIME_FACTOR times that under an emulator)."""
-    os.write(fd, (line + "\r").encode())
-    got = b""
-    end = time.monotonic() + timeout * TIME_FACTOR
-    while time.monotonic() < end:
-        r, _, _ = select.select([fd], [], [], 0.1)
-        if r:
-            got += os.read(fd, 4096)
-            lines = got.decode(errors="replace").split("\r\n")
-            if any(l == "OK" or l.startswith("ERR ") for l in lines[:-1]):
-                break
-    return got.decode(errors="replace")
+    return console.command(fd, line, timeout * TIME_FACTOR)
+
+
+class TextClient:
+    """A raw line client of edgefused's robot text port on loopback: the tests check the replies'
+    exact text, so unlike tools/robot/edgefuse_robot.py it neither parses nor raises on ERR."""
+
+    def __init__(self, port, timeout_s):
+        """Connects; timeout_s (times TIME_FACTOR under an emulator) bounds the connect and each recv."""
+        self.s = socket.create_connection(("127.0.0.1", port), timeout=timeout_s * TIME_FACTOR)
+        self.s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.buf = b""
+
+    def line(self):
+        """The next reply line, without its newline."""
+        while b"\n" not in self.buf:
+            chunk = self.s.recv(4096)
+            if not chunk:
+                raise EOFError("the text port closed the connection")
+            self.buf += chunk
+        line, _, self.buf = self.buf.partition(b"\n")
+        return line.decode()
+
+    def ask(self, text):
+        """Sends one request line, returns its reply line."""
+        self.s.sendall(text.encode() + b"\n")
+        return self.line()
 
 
 def vm_data_kib(pid):

@@ -30,7 +30,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import command, emulation, open_raw, popen  # noqa: E402
+from edgefused_helpers import check, command, emulation, failures, open_raw, popen, wait_started  # noqa: E402
 
 EMU, SLOW = emulation(sys.argv)
 
@@ -54,14 +54,6 @@ if len(sys.argv) != 5:
 BUILD, SOURCE, BOARD, WORK = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
 BUILD, SOURCE, WORK = (os.path.realpath(p) for p in (BUILD, SOURCE, WORK))
 ROOT = os.path.join(WORK, "root")
-failures = []
-
-
-def check(cond, what):
-    print(("ok   " if cond else "FAIL ") + what, flush=True)
-    if not cond:
-        failures.append(what)
-    return cond
 
 
 def run(args, **kwargs):
@@ -231,14 +223,7 @@ def replay_to_listen():
                      "--set", "link.serial=", "--set", "console.echo=false", "--set", "localize.still_period_s=1",
                      "--set", "calib.dir=" + os.path.join(WORK, "state")],
               stdout=log, stderr=subprocess.STDOUT, cwd=WORK, env=installed_env())
-    info = {}
-    end = time.monotonic() + 120 * SLOW
-    while time.monotonic() < end and "ready" not in info and d.poll() is None:
-        time.sleep(0.1)
-        log.seek(0)
-        for line in log.read().splitlines():
-            k, _, v = line.partition(": ")
-            info[k] = v if line != "ready" else True
+    info = wait_started(d, log, 120)
     if not check("ready" in info, "installed edgefused ready on the replay of bin_rig_a"):
         log.seek(0)
         print(log.read())

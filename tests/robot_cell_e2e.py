@@ -21,7 +21,7 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import check, emulation, failures, popen, wait_started  # noqa: E402
+from edgefused_helpers import check, check_started, emulation, failures, popen, wait_started  # noqa: E402
 
 EMU, SLOW = emulation(sys.argv)
 EDGEFUSED, EDGEFUSE, DATA, WORK = sys.argv[1:5]
@@ -41,11 +41,7 @@ def cycle(mode, name=None):
                "--set", "tracking.poses=" + mode, "--set", "tracking.sim_truth=false", "--set", "robot.latency_us=10000",
                "--set", "sensors.replay_speed=%g" % SPEED, "--set", "calib.dir=" + os.path.join(work, "state")], stdout=log, stderr=subprocess.STDOUT)
     info = wait_started(d, log, 60)
-    if "ready" not in info or "robot" not in info or "console" not in info:
-        log.seek(0)
-        print(log.read())
-        check(False, "%s: edgefused started" % mode)
-        d.kill()
+    if not check_started(d, log, info, ("robot", "console"), "%s: edgefused started" % mode):
         return None
     summary_path = os.path.join(work, "summary.json")
     r = subprocess.run(["/usr/bin/python3", ROBOT_SIM, "--port", info["robot"].rsplit(":", 1)[1], "--data", os.path.join(DATA, "bin_rig_a"),

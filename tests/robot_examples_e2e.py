@@ -20,14 +20,14 @@ import math
 import os
 import re
 import shutil
-import signal
 import socket
 import subprocess
 import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import check, emulation, failures, open_raw, popen, wait_recording_mapped, wait_started  # noqa: E402
+from edgefused_helpers import (TextClient, check, emulation, failures, open_raw, popen, sigterm_and_wait,  # noqa: E402
+                               wait_recording_mapped, wait_started)
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools", "robot"))
 from pose_math import angle_deg as quat_angle_deg, axis_angle, qmul as quat_mul  # noqa: E402
 
@@ -136,22 +136,12 @@ def matches(words, form):
     return got
 
 
-class Conn:
-    def __init__(self, port):
-        self.s = socket.create_connection(("127.0.0.1", port), timeout=120 * SLOW)
-        self.s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self.buf = b""
-        self.units, self.rotation = "m", "xyzw"
+class Conn(TextClient):
+    """A text-port connection that remembers the conventions the exchange set (UNITS, ROTATION)."""
 
-    def ask(self, text):
-        self.s.sendall(text.encode() + b"\n")
-        while b"\n" not in self.buf:
-            chunk = self.s.recv(4096)
-            if not chunk:
-                raise EOFError("the text port closed the connection")
-            self.buf += chunk
-        line, _, self.buf = self.buf.partition(b"\n")
-        return line.decode()
+    def __init__(self, port):
+        super().__init__(port, 120)
+        self.units, self.rotation = "m", "xyzw"
 
 
 def flange_values(units, rotation, template):
@@ -394,12 +384,7 @@ def run_exchange(path):
     near = [min(math.dist(o[2], p) for p in truth) for o in run.objects]
     check(sum(1 for e in near if e < 0.010) >= 3,
           "%s: three or more objects lie within 10 mm of objects.txt's (frame and scale): %s mm" % (name, " ".join("%.1f" % (1e3 * e) for e in near)))
-    d.send_signal(signal.SIGTERM)
-    try:
-        d.wait(timeout=30 * SLOW)
-    except subprocess.TimeoutExpired:
-        d.kill()
-        d.wait()
+    sigterm_and_wait(d, 30)
     check(d.returncode == 0, "%s: edgefused stopped cleanly (exit %s)" % (name, d.returncode))
 
 

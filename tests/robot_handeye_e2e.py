@@ -22,7 +22,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools", "robot"))
-from edgefused_helpers import check, emulation, failures, popen, wait_started  # noqa: E402
+from edgefused_helpers import check, check_started, emulation, failures, popen, wait_started  # noqa: E402
 
 EMU, SLOW = emulation(sys.argv)
 EDGEFUSED, WORK = sys.argv[1:3]
@@ -54,11 +54,7 @@ def run(name, error_mm, error_deg, save, folder=None):
                "--set", "tracking.poses=icp", "--set", "tracking.sim_truth=false", "--set", "tracking.push_every_frame=true",
                "--set", "calib.dir=" + os.path.join(work, "state")], stdout=log, stderr=subprocess.STDOUT)
     info = wait_started(d, log, 30)
-    if "ready" not in info or "robot" not in info:
-        log.seek(0)
-        print(log.read())
-        check(False, "%s: edgefused started" % name)
-        d.kill()
+    if not check_started(d, log, info, ("robot",), "%s: edgefused started" % name):
         return None
     summary_path = os.path.join(work, "summary.json")
     cmd = ["/usr/bin/python3", ROBOT_SIM, "--port", info["robot"].rsplit(":", 1)[1], "--handeye", STATIONS,

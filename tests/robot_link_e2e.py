@@ -22,7 +22,7 @@ import time
 import zlib
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from edgefused_helpers import emulation, open_raw, popen, wait_started  # noqa: E402
+from edgefused_helpers import TextClient, check, emulation, failures, open_raw, popen, wait_started  # noqa: E402
 
 EMU, SLOW = emulation(sys.argv)
 EDGEFUSED, LISTEN_PY, WORK = sys.argv[1:4]
@@ -32,33 +32,6 @@ TRUTH = [
     (2, (0.475, 0.020, 0.045), (0.7071068, 0.0, 0.0, 0.7071068), 0.88),
     (3, (0.390, 0.110, 0.025), (0.0, 0.0, 0.0, 1.0), 0.61),
 ]
-failures = []
-
-
-def check(cond, what):
-    print(("ok   " if cond else "FAIL ") + what, flush=True)
-    if not cond:
-        failures.append(what)
-
-
-class TextClient:
-    def __init__(self, port):
-        self.s = socket.create_connection(("127.0.0.1", port), timeout=10 * SLOW)
-        self.s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self.buf = b""
-
-    def line(self):
-        while b"\n" not in self.buf:
-            chunk = self.s.recv(4096)
-            if not chunk:
-                raise EOFError("the text port closed the connection")
-            self.buf += chunk
-        line, _, self.buf = self.buf.partition(b"\n")
-        return line.decode()
-
-    def ask(self, text):
-        self.s.sendall(text.encode() + b"\n")
-        return self.line()
 
 
 def check_object(reply, index, mm=False, wxyz=False):
@@ -143,7 +116,7 @@ stalled_pb = socket.create_connection(("127.0.0.1", link_port))  # never reads t
 stalled_pb.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
 
 # --- the picking cycle over the text port ------------------------------------------------------
-a = TextClient(text_port)
+a = TextClient(text_port, 10)
 check(a.ask("CAPTURE 0.4 0 0.6 0 0 0 1") == "OK", "CAPTURE -> OK")
 for i in range(500):  # 2 s of a robot's pose stream at 250 Hz, sent at once: no replies
     a.s.sendall(b"POSE %.4f,0,0.6, 0,0,0,1\n" % (0.4 + 1e-4 * i))

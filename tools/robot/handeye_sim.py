@@ -22,7 +22,7 @@ import sys
 import time
 
 from edgefuse_robot import RobotClient, RobotError
-from pose_math import angle_deg, compose, inverse, slerp
+from pose_math import angle_deg, compose, interpolate, inverse
 
 TARGETS = ((0.0, 0.0, 0.5, 0.05), (0.2, 0.02, 1.0, 0.1))  # robot error mm, deg -> target mm, deg
 
@@ -46,9 +46,8 @@ class StationPath:
         if t >= k[-1][0]:
             return k[-1][1]
         i = next(i for i in range(1, len(k)) if k[i][0] >= t)
-        (ta, (a, qa)), (tb, (b, qb)) = k[i - 1], k[i]
-        s = smoothstep((t - ta) / (tb - ta))
-        return (tuple(x + s * (y - x) for x, y in zip(a, b)), slerp(qa, qb, s))
+        (ta, a), (tb, b) = k[i - 1], k[i]
+        return interpolate(a, b, smoothstep((t - ta) / (tb - ta)))
 
 
 def same(a, b):

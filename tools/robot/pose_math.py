@@ -50,6 +50,13 @@ def slerp(q0, q1, s):
     return qnorm(tuple(w0 * a + w1 * b for a, b in zip(q0, q1)))
 
 
+def interpolate(a, b, s):
+    """The pose a fraction s of the way from pose a to pose b: translation lerp, rotation slerp (as
+    edgefused interpolates its pose sources, so the robot tools describe the same path)."""
+    (ta, qa), (tb, qb) = a, b
+    return (tuple(x + s * (y - x) for x, y in zip(ta, tb)), slerp(qa, qb, s))
+
+
 def axis_angle(axis, rad):
     s = math.sin(rad / 2)
     return (axis[0] * s, axis[1] * s, axis[2] * s, math.cos(rad / 2))

@@ -43,8 +43,9 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import console  # noqa: E402
 from edgefuse_robot import RobotClient, RobotError  # noqa: E402
-from pose_math import axis_angle, compose, inverse, qmul, qnorm, slerp  # noqa: E402
+from pose_math import axis_angle, compose, interpolate, inverse, qmul, qnorm  # noqa: E402
 
 # The default mounting: the camera 96 mm out along the flange axis, 42 mm off it, turned 90 deg
 # about the flange axis and tilted 10 deg (a bracket on the gripper's side).
@@ -96,9 +97,8 @@ class Path:
                 lo = mid
             else:
                 hi = mid
-        (t0, (a, qa)), (t1, (b, qb)) = p[lo], p[hi]
-        s = (t - t0) / (t1 - t0)
-        return (tuple(x + s * (y - x) for x, y in zip(a, b)), slerp(qa, qb, s))
+        (t0, a), (t1, b) = p[lo], p[hi]
+        return interpolate(a, b, (t - t0) / (t1 - t0))
 
 
 class Errors:
@@ -135,32 +135,6 @@ def pair(text, what):
     if len(v) != 2 or v[0] < 0 or v[1] < v[0]:
         raise SystemExit("robot_sim: %s is LO,HI (or one value), not %r" % (what, text))
     return tuple(v)
-
-
-def console_command(dev, line, timeout_s=5.0):
-    """One console line on edgefused's console pty; returns the reply (up to OK / ERR)."""
-    import select
-    import termios
-    fd = os.open(dev, os.O_RDWR | os.O_NOCTTY)
-    try:
-        a = termios.tcgetattr(fd)
-        a[0] = a[1] = a[3] = 0
-        a[2] = termios.CS8 | termios.CREAD | termios.CLOCAL
-        a[6][termios.VMIN] = 1
-        a[6][termios.VTIME] = 0
-        termios.tcsetattr(fd, termios.TCSANOW, a)
-        os.write(fd, (line + "\r").encode())
-        got, end = b"", time.monotonic() + timeout_s
-        while time.monotonic() < end:
-            r, _, _ = select.select([fd], [], [], 0.1)
-            if r:
-                got += os.read(fd, 4096)
-                lines = got.decode(errors="replace").split("\r\n")
-                if any(x == "OK" or x.startswith("ERR ") for x in lines[:-1]):
-                    break
-        return got.decode(errors="replace")
-    finally:
-        os.close(fd)
 
 
 def log_text(path):
@@ -231,7 +205,7 @@ def main():
     if args.console:
         t, q = T_fc
         line = "calib set flange %.6f %.6f %.6f %.7f %.7f %.7f %.7f" % (t + q)
-        reply = console_command(args.console, line)
+        reply = console.command_once(args.console, line)
         ok = "\r\nOK\r\n" in "\r\n" + reply
         print("robot_sim: console %s: %s -> %s" % (args.console, line, "OK" if ok else reply.strip()))
         if not ok:
