@@ -93,8 +93,7 @@ bool set_up_core(FuseOptions& o, FuseRun& run, Failure& f) {
   // First frame: needed for the default volume placement.
   const Pose first_pose = run.single_unposed ? Pose::identity() : seq.frames[0].T_world_cam;
   if (!io::load_depth(seq.frames[0], seq.intr, run.depth, err)) return fail(f, err);
-  if (!settings.origin_given &&
-      !centre_on_view(seq.intr, run.depth, first_pose, settings, seq.frames[0].depth_path, err))
+  if (!size_space_to_view("fuse", seq.intr, run.depth, first_pose, settings, seq.frames[0].depth_path, err))
     return fail(f, err);
   if (!core.make_volume(settings, err)) return fail(f, err);
   const Vec3f& org = core.volume.origin_m();

@@ -183,7 +183,8 @@ bool set_up_core(TrackOptions& o, TrackRun& run, Failure& f) {
     return fail(f, seq.root + ": " + err);
   run.first_pose = seq.frames[0].has_pose ? seq.frames[0].T_world_cam : Pose::identity();
   if (!io::load_depth(seq.frames[0], intr, run.depth, err)) return fail(f, err);
-  if (!centre_on_view(intr, run.depth, run.first_pose, o.settings, seq.frames[0].depth_path, err)) return fail(f, err);
+  if (!size_space_to_view("track", intr, run.depth, run.first_pose, o.settings, seq.frames[0].depth_path, err))
+    return fail(f, err);
   if (!run.core.make_volume(o.settings, err)) return fail(f, err);
   return true;
 }
