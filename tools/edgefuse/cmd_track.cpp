@@ -109,6 +109,20 @@ void print_totals(std::size_t frame_count, const Totals& sum) {
               sum.cpu[4] > 0 ? 1000.0 * n / sum.cpu[4] : 0.0);
 }
 
+//! When more than half the frames after the first were lost or degraded, says what likely happened
+//! and what to try: the counts alone left a new user guessing (issue 25).
+//! \param frame_count frames tracked  \param sum their states  \param settings the space they were fused in
+void print_tracking_advice(std::size_t frame_count, const Totals& sum, const FuseSettings& settings) {
+  const int tracked = int(frame_count) - 1;  // the first frame is placed, not tracked
+  if (tracked < 1 || 2 * (sum.lost + sum.degraded) <= tracked) return;
+  std::printf("track: %d of %d frames were not tracked well (lost %d, degraded %d): the model the frames are "
+              "aligned to is likely too small or too sparse (the space is %d^3 x %.4f m = %.2f m; lost frames "
+              "are not fused), or the sensor moved too fast; try --voxel 0.01 for a room-sized scene, "
+              "--push-every-frame, or a recording with smaller steps between frames\n",
+              sum.lost + sum.degraded, tracked, sum.lost, sum.degraded, settings.dim, double(settings.voxel_m),
+              double(float(settings.dim) * settings.voxel_m));
+}
+
 void add_frame(const TrackResult& r, const PhaseClock& clock, Totals& sum) {
   sum.filter += clock.wall_ms(0);
   sum.raycast += clock.wall_ms(1);
@@ -273,6 +287,7 @@ bool write_outputs(const TrackOptions& o, const TrackRun& run, Failure& f) {
                 o.args.get("cloud").c_str());
   }
   print_totals(run.frame_count, run.sum);
+  print_tracking_advice(run.frame_count, run.sum, o.settings);
   return true;
 }
 
