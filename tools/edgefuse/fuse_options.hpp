@@ -25,8 +25,9 @@ bool apply_fuse_options(const Args& args, FuseSettings& settings, int& frames_ma
 //! centre_on_view() does, unless --origin was given). When less than 90 % of the frame's in-range
 //! points fall inside the space: with the board's defaults (no --voxel, --volume or --origin) the
 //! voxel grows along a short ladder (4 mm, 5 mm, 1 cm, 2 cm) to the first size whose cube holds 90 %,
-//! truncation 4 voxels unless --trunc was given, and one line says so; with an explicit space, a
-//! warning names the share and the --voxel that would hold 90 %. Refuses when even 2 cm holds too
+//! truncation 4 voxels unless --trunc was given, and one line says so; an explicit space is kept,
+//! and when it holds less than half, a warning names the share and the --voxel that would hold
+//! 90 %. Refuses when even 2 cm holds too
 //! little, naming the --voxel to pass.
 //! \param command "track" or "fuse", the prefix of the printed lines
 //! \param intr the sensor  \param depth the first frame's raw depth
