@@ -39,8 +39,11 @@ const char* kUsage =
     "  fuses the frames at the estimated poses. The first pose is the data set's first ground-truth\n"
     "  pose, or the identity without one. Defaults: voxel, truncation and threads from the board (4\n"
     "  voxels of truncation when only --voxel is given); volume = the board's capacity, centred on\n"
-    "  what the first frame sees; --out track.txt. Frames are pushed when the sensor moved 1 cm or\n"
-    "  1 degree since the last push (--push-every-frame: always), never while tracking is lost.\n";
+    "  what the first frame sees; --out track.txt. Without --voxel and --volume, when that space holds\n"
+    "  less than 90 % of the first frame's points, the voxel grows (4 mm, 5 mm, 1 cm, 2 cm) until it\n"
+    "  does, and a line says so; an explicit space is kept (a warning when it holds less than half).\n"
+    "  Frames are pushed when the sensor moved 1 cm or 1 degree since the last push\n"
+    "  (--push-every-frame: always), never while tracking is lost.\n";
 
 struct Totals {
   double filter = 0, raycast = 0, icp = 0, integrate = 0, loop = 0;
