@@ -179,7 +179,8 @@ bool size_space_to_view(const char* command, const PinholeIntrinsics& intr, cons
   if (chosen_m == 0.0f) {
     char keep[64];
     std::snprintf(keep, sizeof keep, ", or --voxel %g to fuse only the part inside", double(s.voxel_m));
-    err = shortfall + ", and so would any voxel up to " + length_text(kVoxelLadder_m[3]) + ": " +
+    err = shortfall + ", and no voxel up to " + length_text(kVoxelLadder_m[3]) + " holds " +
+          std::to_string(int(100.0f * kHeldShare)) + " %: " +
           voxel_advice(s, voxel_holding(view, s, centre_m, kVoxelLadder_m[3])) + keep;
     return false;
   }
