@@ -25,7 +25,10 @@ const char* kUsage =
     "                     [--origin X,Y,Z] [--out FILE.ply|.pcd] [--mesh FILE.ply] [--threads N]\n"
     "  Integrates the frames of DATASET (any layout of FORMATS.md) at their ground-truth poses.\n"
     "  Defaults: voxel, truncation and threads from the board; volume = the board's capacity,\n"
-    "  centred on what the first frame sees; --out fused.ply.\n"
+    "  centred on what the first frame sees; --out fused.ply. Without --voxel, --volume and --origin,\n"
+    "  when that space holds less than 90 % of the first frame's points, the voxel grows (4 mm, 5 mm,\n"
+    "  1 cm, 2 cm) until it does, and a line says so; an explicit space is kept (a warning when it\n"
+    "  holds less than half).\n"
     "  With --sensors A,B,... (a rig set): several sensors into one space; see `edgefuse fuse RIGSET --sensors`.\n";
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
@@ -93,8 +96,7 @@ bool set_up_core(FuseOptions& o, FuseRun& run, Failure& f) {
   // First frame: needed for the default volume placement.
   const Pose first_pose = run.single_unposed ? Pose::identity() : seq.frames[0].T_world_cam;
   if (!io::load_depth(seq.frames[0], seq.intr, run.depth, err)) return fail(f, err);
-  if (!settings.origin_given &&
-      !centre_on_view(seq.intr, run.depth, first_pose, settings, seq.frames[0].depth_path, err))
+  if (!size_space_to_view("fuse", seq.intr, run.depth, first_pose, settings, seq.frames[0].depth_path, err))
     return fail(f, err);
   if (!core.make_volume(settings, err)) return fail(f, err);
   const Vec3f& org = core.volume.origin_m();

@@ -39,8 +39,11 @@ const char* kUsage =
     "  fuses the frames at the estimated poses. The first pose is the data set's first ground-truth\n"
     "  pose, or the identity without one. Defaults: voxel, truncation and threads from the board (4\n"
     "  voxels of truncation when only --voxel is given); volume = the board's capacity, centred on\n"
-    "  what the first frame sees; --out track.txt. Frames are pushed when the sensor moved 1 cm or\n"
-    "  1 degree since the last push (--push-every-frame: always), never while tracking is lost.\n";
+    "  what the first frame sees; --out track.txt. Without --voxel and --volume, when that space holds\n"
+    "  less than 90 % of the first frame's points, the voxel grows (4 mm, 5 mm, 1 cm, 2 cm) until it\n"
+    "  does, and a line says so; an explicit space is kept (a warning when it holds less than half).\n"
+    "  Frames are pushed when the sensor moved 1 cm or 1 degree since the last push\n"
+    "  (--push-every-frame: always), never while tracking is lost.\n";
 
 struct Totals {
   double filter = 0, raycast = 0, icp = 0, integrate = 0, loop = 0;
@@ -107,6 +110,20 @@ void print_totals(std::size_t frame_count, const Totals& sum) {
               "integrate_ms=%.3f loop_ms=%.3f fps=%.1f\n",
               sum.cpu[0] / n, sum.cpu[1] / n, sum.cpu[2] / n, sum.cpu[3] / n, sum.cpu[4] / n,
               sum.cpu[4] > 0 ? 1000.0 * n / sum.cpu[4] : 0.0);
+}
+
+//! When more than half the frames after the first were lost or degraded, says what likely happened
+//! and what to try: the counts alone left a new user guessing (issue 25).
+//! \param frame_count frames tracked  \param sum their states  \param settings the space they were fused in
+void print_tracking_advice(std::size_t frame_count, const Totals& sum, const FuseSettings& settings) {
+  const int tracked = int(frame_count) - 1;  // the first frame is placed, not tracked
+  if (tracked < 1 || 2 * (sum.lost + sum.degraded) <= tracked) return;
+  std::printf("track: %d of %d frames were not tracked well (lost %d, degraded %d): the model the frames are "
+              "aligned to is likely too small or too sparse (the space is %d^3 x %.4f m = %.2f m; lost frames "
+              "are not fused), or the sensor moved too fast; try --voxel 0.01 for a room-sized scene, "
+              "--push-every-frame, or a recording with smaller steps between frames\n",
+              sum.lost + sum.degraded, tracked, sum.lost, sum.degraded, settings.dim, double(settings.voxel_m),
+              double(float(settings.dim) * settings.voxel_m));
 }
 
 void add_frame(const TrackResult& r, const PhaseClock& clock, Totals& sum) {
@@ -183,7 +200,8 @@ bool set_up_core(TrackOptions& o, TrackRun& run, Failure& f) {
     return fail(f, seq.root + ": " + err);
   run.first_pose = seq.frames[0].has_pose ? seq.frames[0].T_world_cam : Pose::identity();
   if (!io::load_depth(seq.frames[0], intr, run.depth, err)) return fail(f, err);
-  if (!centre_on_view(intr, run.depth, run.first_pose, o.settings, seq.frames[0].depth_path, err)) return fail(f, err);
+  if (!size_space_to_view("track", intr, run.depth, run.first_pose, o.settings, seq.frames[0].depth_path, err))
+    return fail(f, err);
   if (!run.core.make_volume(o.settings, err)) return fail(f, err);
   return true;
 }
@@ -272,6 +290,7 @@ bool write_outputs(const TrackOptions& o, const TrackRun& run, Failure& f) {
                 o.args.get("cloud").c_str());
   }
   print_totals(run.frame_count, run.sum);
+  print_tracking_advice(run.frame_count, run.sum, o.settings);
   return true;
 }
 

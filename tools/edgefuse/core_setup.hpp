@@ -27,6 +27,9 @@ struct FuseSettings {
   int threads = 1;
   Vec3f origin_m = Vec3f::Zero();
   bool origin_given = false;
+  // Which settings the command line gave: the space is sized to the data only when none of
+  // voxel, volume and origin was (size_space_to_view()).
+  bool voxel_given = false, trunc_given = false, volume_given = false;
 };
 
 struct CoreSetup {
