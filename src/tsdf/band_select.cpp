@@ -6,11 +6,12 @@
 //   - the bricks around each pixel's measurement (kBrickBand): the region whose voxels take that
 //     pixel as their nearest one (its image cell) between (lowest depth they may interpolate) -
 //     trunc and (highest) + rho; the brick loop updates all their voxels, band and free alike;
-//   - in front of that, the free margin (TsdfParams::free_margin_m, 2 trunc by default): bricks
+//   - in front of that, the free margin (TsdfParams::free_margin_m, by default the larger of
+//     2 trunc and kDefaultFreeMarginM): bricks
 //     listed only there get their +1 samples where the frame sees them free with every pixel
 //     valid (no voxel loop: none of their voxels is in the band). This keeps the space just in
-//     front of surfaces observed, which the localiser's verification reads (measured on bin_rig_a
-//     with tracked poses: without it a bracket hypothesis claimed a box's place);
+//     front of surfaces observed, which the localiser's verification reads (measured: without it
+//     a bracket hypothesis claimed a box's place on the tracked bin_rig_a map; volume.hpp);
 //   - every brick holding surface (kBrickSurface) inside the frustum, so that a surface the
 //     camera now sees through is carved (a removed object leaves the map).
 // Free space away from both stays as it was; VoxelBlockGrid integrates the same band (without the
@@ -187,7 +188,7 @@ void list_band(BrickLister& out, const TsdfVolume& volume, const PinholeIntrinsi
   g.cy = intr.cy;
   g.inv_scale = 1.0f / intr.depth_scale;
   g.trunc_m = p.trunc_m;
-  g.margin_m = p.free_margin_m > 0.0f ? p.free_margin_m : 2.0f * p.trunc_m;
+  g.margin_m = p.free_margin_m > 0.0f ? p.free_margin_m : std::fmax(2.0f * p.trunc_m, kDefaultFreeMarginM);
   g.rho_m = p.weight.rho_m;
   g.half_cell = 0.71f / (intr.fx < intr.fy ? intr.fx : intr.fy) / brick_m;
   g.z_min = intr.min_range_m - jump_m;
