@@ -146,7 +146,13 @@ for _ in range(30):
     command(con, "status")
     command(con, "param get")
 after = vm_data_kib(d.pid)
-check(SANITIZED or (before > 0 and after == before), "VmData flat over 30 localise cycles: %d -> %d KiB" % (before, after))
+# Under qemu-user VmData is the emulator's too: its translation buffers grow when a code path runs for
+# the first time (measured on armhf: +128 KiB once in a CI run, flat when rerun). Natively it must
+# not move at all; heap allocations in steady state are counted by test_alloc_free on every target.
+slack_kib = 256 if EMU else 0
+check(SANITIZED or (before > 0 and before <= after <= before + slack_kib),
+      "VmData flat over 30 localise cycles: %d -> %d KiB%s" % (before, after, " (emulated: +%d KiB allowed)" % slack_kib
+                                                                 if EMU else ""))
 
 # --- clean stop ------------------------------------------------------------------------------
 d.send_signal(signal.SIGTERM)
