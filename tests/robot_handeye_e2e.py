@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""End-to-end: hand-eye calibration without a target, online (issue 26, item 4). edgefused (host-sim,
+"""End-to-end: hand-eye calibration without a target, online. edgefused (host-sim,
 sim backend) moves its rig along board/host-sim/handeye_stations.txt (sensors.sim_path: stations
 tilted 15-25 deg about different horizontal axes, rolled about the viewing axis, eased moves
 between them at ~1 deg a frame) and tracks it by ICP alone (tracking.poses = icp,
@@ -8,7 +8,7 @@ tools/robot/robot_sim.py --handeye is the robot: CAPTURE, a POSE stream, HANDEYE
 station, HANDEYE SOLVE, and the solved T_flange_camera against its own mounting. Two runs: exact
 robot poses, then 0.2 mm / 0.02 deg of error per reported pose. Checks: every station of the path
 added; the stations' RMS residual within the robot's error plus the tracking's (TRACKING_MM /
-TRACKING_DEG); the error within issue 26's targets, 0.5 mm / 0.05 deg exact, 1 mm / 0.1 deg with
+TRACKING_DEG); the error within the hand-eye targets, 0.5 mm / 0.05 deg exact, 1 mm / 0.1 deg with
 the robot's error (a run that misses it is repeated once, see RUNS); after HANDEYE SAVE,
 CALIBRATION returns the solved mounting.
 
@@ -30,7 +30,7 @@ ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 ROBOT_SIM = os.path.join(ROOT, "tools", "robot", "robot_sim.py")
 BOARD = os.path.join(ROOT, "board", "host-sim", "edgefused.toml")
 STATIONS = os.path.join(ROOT, "board", "host-sim", "handeye_stations.txt")
-# issue 26's targets per run. The stations' RMS residual is the robot's error per pose plus the
+# the hand-eye targets per run. The stations' RMS residual is the robot's error per pose plus the
 # tracking's: 0.09-0.12 mm / 0.009-0.012 deg measured with exact poses on this path, so 0.35 mm /
 # 0.035 deg above the robot's error (3x) means tracking slipped; integrating only after 1 cm / 1 deg
 # (tracking.push_every_frame = false) left the first station 0.24 deg off the others (an RMS of 0.1

@@ -1,5 +1,5 @@
 # ctest script on tum_fr1_xyz_37 (a desk-sized room seen from 0.9-3.6 m): the board's default space
-# (host-sim: 256^3 x 2 mm = 0.51 m) is sized to what the first frame sees (issue 25, item 4).
+# (host-sim: 256^3 x 2 mm = 0.51 m) is sized to what the first frame sees.
 #  - `track` without --voxel prints the sizing line and tracks the 5 frames (none lost).
 #  - `track --voxel 0.002` keeps the user's space and prints the warning with the --voxel to pass.
 #  - `fuse` without --voxel sizes the same way.

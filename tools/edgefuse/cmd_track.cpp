@@ -113,7 +113,7 @@ void print_totals(std::size_t frame_count, const Totals& sum) {
 }
 
 //! When more than half the frames after the first were lost or degraded, says what likely happened
-//! and what to try: the counts alone left a new user guessing (issue 25).
+//! and what to try: the counts alone left a new user guessing.
 //! \param frame_count frames tracked  \param sum their states  \param settings the space they were fused in
 void print_tracking_advice(std::size_t frame_count, const Totals& sum, const FuseSettings& settings) {
   const int tracked = int(frame_count) - 1;  // the first frame is placed, not tracked

@@ -12,7 +12,7 @@ is T_base_flange = T_world_rig * inv(T_flange_camera), the base frame being the 
   4. at every station still ahead, --settle-s after the rig arrived (and --warmup-s after CAPTURE):
      HANDEYE ADD with the flange pose (with the same error: the pose the robot reports);
   5. HANDEYE SOLVE (with --save: HANDEYE SAVE and CALIBRATION, which must return it); the solved T_flange_camera against --mount: translation error (mm), rotation
-     error (deg), PASS / FAIL against issue 26's targets (exact poses: 0.5 mm / 0.05 deg; 0.2 mm /
+     error (deg), PASS / FAIL against the hand-eye targets (exact poses: 0.5 mm / 0.05 deg; 0.2 mm /
      0.02 deg of robot error: 1 mm / 0.1 deg). Exit 1 on FAIL or when a request failed.
 """
 import json
