@@ -219,20 +219,13 @@ void list_band(BrickLister& out, const TsdfVolume& volume, const PinholeIntrinsi
 
 // Lists the surface bricks inside the frustum that are not listed yet.
 void list_surface(BrickLister& out, const TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam) {
-  const Pose T_cam_world = T_world_cam.inverse();
-  const float vs = volume.voxel_m();
-  const float radius = 0.5f * std::sqrt(3.0f) * kBrickSide * vs;
-  const float far_z = intr.max_range_m + volume.params().trunc_m;
-  const FrustumPlanes planes = frustum_planes(intr);
-  const Vec3f half = Vec3f::Constant(0.5f * kBrickSide * vs);
+  const BrickFrustum frustum(volume, intr, T_world_cam);
   const std::size_t bricks = volume.brick_count();
   for (std::size_t b = 0; b < bricks; ++b) {
     if ((out.flags[b] & (kBrickSurface | kBrickListed)) != kBrickSurface) continue;
     int bx, by, bz;
     volume.brick_coords(b, bx, by, bz);
-    const Vec3f c = T_cam_world * (volume.origin_m() + Vec3f(float(bx), float(by), float(bz)) * (kBrickSide * vs) + half);
-    if (!planes.may_see(c, radius, far_z)) continue;
-    out.add(bx, by, bz, true);
+    if (frustum.sees(bx, by, bz)) out.add(bx, by, bz, true);
   }
 }
 

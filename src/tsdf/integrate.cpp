@@ -326,22 +326,14 @@ Status prepare_integration(const TsdfVolume& volume, const PinholeIntrinsics& in
 
 std::size_t select_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr, const Pose& T_world_cam) {
   if (!volume.initialised()) return 0;
-  const Pose T_cam_world = T_world_cam.inverse();
-  const float vs = volume.voxel_m();
-  const float radius = 0.5f * std::sqrt(3.0f) * kBrickSide * vs;
-  const float far_z = intr.max_range_m + volume.params().trunc_m;
-  const FrustumPlanes planes = frustum_planes(intr);
+  const BrickFrustum frustum(volume, intr, T_world_cam);
   const int nb = volume.bricks_per_axis();
   uint32_t* list = volume.brick_list();
   std::size_t count = 0;
-  const Vec3f half = Vec3f::Constant(0.5f * kBrickSide * vs);
   for (int bz = 0; bz < nb; ++bz)
     for (int by = 0; by < nb; ++by)
-      for (int bx = 0; bx < nb; ++bx) {
-        const Vec3f centre_w = volume.origin_m() + Vec3f(float(bx), float(by), float(bz)) * (kBrickSide * vs) + half;
-        if (!planes.may_see(T_cam_world * centre_w, radius, far_z)) continue;
-        list[count++] = uint32_t(volume.brick_index(bx, by, bz));
-      }
+      for (int bx = 0; bx < nb; ++bx)
+        if (frustum.sees(bx, by, bz)) list[count++] = uint32_t(volume.brick_index(bx, by, bz));
   return count;
 }
 
