@@ -20,7 +20,7 @@ function(edgefuse_read_board file prefix)
 endfunction()
 
 function(edgefuse_require_board_keys prefix file)
-  foreach(key capacity_volume_dim capacity_colour capacity_image_width_max capacity_image_height_max
+  foreach(key capacity_volume_dim capacity_pool_bricks capacity_colour capacity_image_width_max capacity_image_height_max
               capacity_sensors_max capacity_points_max capacity_objects_max memory_ram_budget_mib fixed_point
               # localisation
               capacity_models_max capacity_model_points_max capacity_ppf_points_max capacity_scene_points_max
@@ -39,6 +39,8 @@ endfunction()
 function(edgefuse_generate_board_config root build_board out)
   file(GLOB board_files "${root}/*/board.toml")
   list(SORT board_files)
+  # Editing a board changes the static buffers: re-run CMake when one changes.
+  set_property(DIRECTORY "${CMAKE_SOURCE_DIR}" APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${board_files})
   set(entries "")
   set(index 0)
   set(build_index -1)
@@ -55,7 +57,7 @@ function(edgefuse_generate_board_config root build_board out)
       endif()
     endforeach()
     string(APPEND entries
-      "    BoardCapacities{\"${name}\", ${B_capacity_volume_dim}, ${B_capacity_colour}, "
+      "    BoardCapacities{\"${name}\", ${B_capacity_volume_dim}, ${B_capacity_pool_bricks}u, ${B_capacity_colour}, "
       "${B_capacity_image_width_max}, ${B_capacity_image_height_max}, ${B_capacity_sensors_max}, "
       "${B_capacity_points_max}u, ${B_capacity_objects_max}, uint64_t(${B_memory_ram_budget_mib}) << 20, "
       "${B_fixed_point}, "

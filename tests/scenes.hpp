@@ -49,12 +49,13 @@ Pose look_at(const Vec3f& eye, const Vec3f& target, const Vec3f& down = Vec3f(0,
 //! Static buffers for a test volume of Dim^3 voxels (with colour).
 template <int Dim>
 struct VolumeStorage {
-  static constexpr std::size_t kVoxels = std::size_t(Dim) * Dim * Dim;
-  static constexpr std::size_t kBricks = kVoxels / edgefuse::kBrickVoxels;
+  static constexpr std::size_t kBricks = std::size_t(Dim) * Dim * Dim / edgefuse::kBrickVoxels;
+  static constexpr std::size_t kVoxels = (kBricks + 1) * edgefuse::kBrickVoxels;  // a full pool
   int16_t tsdf[kVoxels];
   uint8_t weight[kVoxels];
   edgefuse::Rgb8 colour[kVoxels];
   uint8_t colour_weight[kVoxels];
+  uint32_t slots[kBricks];
   uint8_t flags[kBricks];
   uint32_t list[kBricks];
   uint64_t block_mask[kBricks];
@@ -64,13 +65,25 @@ struct VolumeStorage {
     s.weight = weight;
     s.colour = with_colour ? colour : nullptr;
     s.colour_weight = with_colour ? colour_weight : nullptr;
+    s.brick_slot = slots;
     s.brick_flags = flags;
     s.brick_list = list;
     s.block_mask = block_mask;
     s.capacity_dim = Dim;
+    s.pool_bricks = uint32_t(kBricks + 1);
     return s;
   }
 };
+
+//! Calls f(ia, ib) with the indices of the same voxel in volumes a and b (same dim), brick by brick:
+//! each volume's pool holds its bricks in the order they were first written.
+template <class F>
+void for_each_voxel_pair(const edgefuse::TsdfVolume& a, const edgefuse::TsdfVolume& b, F f) {
+  for (std::size_t brick = 0; brick < a.brick_count(); ++brick) {
+    const std::size_t ba = a.brick_base(brick), bb = b.brick_base(brick);
+    for (int i = 0; i < edgefuse::kBrickVoxels; ++i) f(ba + std::size_t(i), bb + std::size_t(i));
+  }
+}
 
 //! Per-sensor buffers of a test: tile scratch and ray norms for images up to 640 x 480.
 template <class Real>

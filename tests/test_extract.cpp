@@ -22,14 +22,15 @@ namespace {
 constexpr int kDim = 64;
 constexpr float kVoxel = 0.005f;
 constexpr float kTrunc = 0.02f;  // 4 voxels
-constexpr std::size_t kVoxels = std::size_t(kDim) * kDim * kDim;
-constexpr std::size_t kBricks = kVoxels / kBrickVoxels;
+constexpr std::size_t kBricks = std::size_t(kDim) * kDim * kDim / kBrickVoxels;
+constexpr std::size_t kVoxels = (kBricks + 1) * kBrickVoxels;  // a pool with a slot for every brick
 constexpr std::size_t kMaxPoints = 40000;
 
 int16_t g_tsdf[kVoxels];
 uint8_t g_weight[kVoxels];
 Rgb8 g_colour[kVoxels];
 uint8_t g_colour_weight[kVoxels];
+uint32_t g_slots[kBricks];
 uint8_t g_flags[kBricks];
 uint32_t g_list[kBricks];
 SurfacePoint g_points[kMaxPoints];
@@ -49,12 +50,16 @@ void setup_volume(int dim = kDim, bool colour = true) {
   s.weight = g_weight;
   s.colour = colour ? g_colour : nullptr;
   s.colour_weight = colour ? g_colour_weight : nullptr;
+  s.brick_slot = g_slots;
   s.brick_flags = g_flags;
   s.brick_list = g_list;
   s.capacity_dim = kDim;
+  s.pool_bricks = uint32_t(kBricks + 1);
   const float half = 0.5f * float(dim) * kVoxel;
   CHECK(g_volume.init(s, dim, Vec3f(-half, -half, -half), TsdfParams::defaults_for(kVoxel, kTrunc)) ==
         Status::kOk);
+  // The tests write voxels directly: every brick gets its slot (in brick order).
+  for (std::size_t b = 0; b < g_volume.brick_count(); ++b) CHECK(g_volume.store_brick(b));
 }
 
 //! Brick flags as integration leaves them.
@@ -63,7 +68,7 @@ void update_flags(TsdfVolume& v) {
   for (std::size_t b = 0; b < v.brick_count(); ++b) {
     uint8_t f = 0;
     for (int i = 0; i < kBrickVoxels; ++i) {
-      const std::size_t k = b * kBrickVoxels + std::size_t(i);
+      const std::size_t k = v.brick_base(b) + std::size_t(i);
       if (v.weight()[k] == 0) continue;
       f |= kBrickObserved;
       if (std::abs(int(v.tsdf()[k])) < kTsdfMax) f |= kBrickSurface;

@@ -10,15 +10,21 @@ using namespace edgefuse;
 
 TEST_GROUP(MemMap){};
 
+// Voxels live in the pool (the board's pool_bricks), compact; the per-brick arrays (index, flags,
+// work list) cover the whole cube the index spans.
 TEST(MemMap, VoxelRegionsAreCompact) {
   const BoardCapacities* b = find_board("host-sim");
   CHECK(b != nullptr);
   const MemoryMap m = make_memory_map(*b);
-  const uint64_t voxels = 256ull * 256 * 256;
+  const uint64_t voxels = uint64_t(b->pool_bricks) * kBrickVoxels;
+  const uint64_t cube_bricks = 256ull * 256 * 256 / kBrickVoxels;
   CHECK_EQUAL(256, b->volume_dim);
+  CHECK(b->pool_bricks < cube_bricks);  // memory follows the surface, not the cube
   CHECK_EQUAL(voxels * 2, m.regions[int(Region::kVoxelTsdf)].bytes);
   CHECK_EQUAL(voxels, m.regions[int(Region::kVoxelWeight)].bytes);
   CHECK_EQUAL(voxels * 3, m.regions[int(Region::kVoxelColour)].bytes);
+  CHECK_EQUAL(cube_bricks * 4, m.regions[int(Region::kBrickSlots)].bytes);
+  CHECK_EQUAL(cube_bricks, m.regions[int(Region::kBrickFlags)].bytes);
   const BoardCapacities* am = find_board("am335x");
   CHECK(am != nullptr);
   CHECK_FALSE(am->colour);
@@ -40,7 +46,7 @@ TEST(MemMap, CarvedRegionsAreAlignedAndDisjoint) {
   CHECK(carve_memory(build_board(), static_arena(), static_arena_bytes(), buf) == Status::kOk);
   const uintptr_t lo = reinterpret_cast<uintptr_t>(static_arena());
   const uintptr_t hi = lo + static_arena_bytes();
-  const void* ptrs[] = {buf.voxels.tsdf, buf.voxels.weight, buf.voxels.brick_flags, buf.voxels.brick_list,
+  const void* ptrs[] = {buf.voxels.tsdf, buf.voxels.weight, buf.voxels.brick_slot, buf.voxels.brick_flags, buf.voxels.brick_list,
                         buf.depth_frames, buf.ray_norms, buf.raycast_depth, buf.raycast_vertex, buf.points,
                         buf.mesh_scratch.edge_ids};
   for (const void* p : ptrs) {

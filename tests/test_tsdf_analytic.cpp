@@ -313,11 +313,11 @@ TEST(TsdfAnalytic, FixedPointRaycastIsWithinAQuarterVoxelOfFloat) {
   // (range limit, depth-jump test, pixel border) may be updated in one build and not the other;
   // they must be rare, and the rest must agree to within 1 % of the truncation.
   long differing_weights = 0, differing_values = 0;
-  for (std::size_t i = 0; i < vol.voxel_count(); ++i) {
-    differing_weights += vol.weight()[i] != fixed_vol.weight()[i];
-    if (vol.weight()[i] && fixed_vol.weight()[i] && std::abs(vol.tsdf()[i] - fixed_vol.tsdf()[i]) > kTsdfMax / 100)
+  for_each_voxel_pair(vol, fixed_vol, [&](std::size_t i, std::size_t j) {
+    differing_weights += vol.weight()[i] != fixed_vol.weight()[j];
+    if (vol.weight()[i] && fixed_vol.weight()[j] && std::abs(vol.tsdf()[i] - fixed_vol.tsdf()[j]) > kTsdfMax / 100)
       ++differing_values;
-  }
+  });
   const long observed = long(vol.observed_voxels());
   std::printf(", of %ld voxels: %ld with another weight, %ld differ by > 1%% of trunc", observed, differing_weights,
               differing_values);
@@ -344,7 +344,7 @@ TEST(TsdfAnalytic, BlockMasksMarkTheBlocksAtOrBehindTheSurfaceAndLeaveTheRaycast
     if (!(vol.brick_flags()[b] & kBrickSurface)) continue;
     ++surface_bricks;
     uint64_t expect = 0;
-    const int16_t* t = vol.tsdf() + b * kBrickVoxels;
+    const int16_t* t = vol.tsdf() + vol.brick_base(b);
     for (int i = 0; i < kBrickVoxels; ++i) {
       const int x = i & 7, y = (i >> 3) & 7, z = i >> 6;
       if (t[i] != kTsdfUnobserved && t[i] <= 0) expect |= uint64_t(1) << (((z >> 1) << 4) | ((y >> 1) << 2) | (x >> 1));
@@ -668,6 +668,7 @@ void fuse_whole_frustum(TsdfVolume& v, const Scene& scene, const PinholeIntrinsi
   IntegrationJob<float> job;
   CHECK(prepare_integration<float>(v, c, g_sensor_float.ray_norms(c), f, T, 1.0f, scratch, job) == Status::kOk);
   const std::size_t n = select_bricks(v, c, T);
+  for (std::size_t i = 0; i < n; ++i) CHECK(v.store_brick(v.brick_list()[i]));  // select_bricks gives no slots
   integrate_bricks<float>(v, job, 0, n);
   finish_integration(v, n);
 }
@@ -694,14 +695,14 @@ TEST(TsdfAnalytic, TheBandSelectionListsEveryBrickTheFrameWritesASurfaceInto) {
     fuse<float>(vol, scene, cam, {T});
     fuse_whole_frustum(whole, scene, cam, T);
     long missed = 0, differ = 0;
-    for (std::size_t i = 0; i < vol.voxel_count(); ++i) {
-      const bool in_band = whole.weight()[i] > 0 && whole.tsdf()[i] < kTsdfMax;
+    for_each_voxel_pair(vol, whole, [&](std::size_t i, std::size_t j) {
+      const bool in_band = whole.weight()[j] > 0 && whole.tsdf()[j] < kTsdfMax;
       band_voxels += in_band;
-      whole_written += whole.weight()[i] > 0;
+      whole_written += whole.weight()[j] > 0;
       band_written += vol.weight()[i] > 0;
-      missed += in_band && (vol.weight()[i] != whole.weight()[i] || vol.tsdf()[i] != whole.tsdf()[i]);
-      differ += vol.weight()[i] > 0 && (vol.weight()[i] != whole.weight()[i] || vol.tsdf()[i] != whole.tsdf()[i]);
-    }
+      missed += in_band && (vol.weight()[i] != whole.weight()[j] || vol.tsdf()[i] != whole.tsdf()[j]);
+      differ += vol.weight()[i] > 0 && (vol.weight()[i] != whole.weight()[j] || vol.tsdf()[i] != whole.tsdf()[j]);
+    });
     LONGS_EQUAL(0, missed);
     LONGS_EQUAL(0, differ);
     for (std::size_t b = 0; b < vol.brick_count(); ++b) LONGS_EQUAL(0, vol.brick_flags()[b] & kBrickListed);
@@ -723,4 +724,65 @@ TEST(TsdfAnalytic, ARemovedObjectIsCarvedAway) {
   const int frames = frames_until_seen(vol, plane_scene(), cam, T, 1.0f, 30);
   std::printf("\n  removed ball carved away after %d frames", frames);
   CHECK(frames <= 4);
+}
+
+// The voxel pool: bricks get a slot when integration first writes into them, so a scene uses a
+// share of the cube. A pool too small for the scene fills up, counts the bricks it refused
+// and keeps what it holds: every brick it stored is the same as with room for all (a brick's
+// update reads only itself and the frame), the empty brick stays empty, and the raycast reads the
+// stored surface. clear() hands every slot back.
+TEST(TsdfAnalytic, TheVoxelPoolStoresOnlyBricksItWritesAndAFullPoolRefusesTheRestCounted) {
+  const Scene scene = sphere_scene();
+  const std::vector<Pose> poses = views_around(Vec3f(0, 0, 0.8f), 0.1f);
+  fuse<float>(vol, scene, cam, poses);
+  const uint32_t used = vol.bricks_in_use();
+  std::printf("\n  voxel pool: %u of %zu bricks stored", used, vol.brick_count());
+  CHECK(used > 100 && used < vol.brick_count() * 3 / 4);  // 64^3 voxels of 1 cm: the margins are a large share
+  CHECK_EQUAL(0u, vol.bricks_refused());
+
+  VoxelStorage small = g_storage_b.view();
+  small.pool_bricks = used / 3 + 1;
+  TsdfVolume tight;
+  CHECK(tight.init(small, kDim, vol.origin_m(), vol.params()) == Status::kOk);
+  fuse<float>(tight, scene, cam, poses);
+  CHECK_EQUAL(small.pool_bricks - 1u, tight.bricks_in_use());
+  CHECK(tight.bricks_refused() > 0);
+  int surface = 0;
+  for (std::size_t b = 0; b < tight.brick_count(); ++b) {
+    if (!tight.brick_stored(b)) {
+      LONGS_EQUAL(0, tight.brick_flags()[b] & (kBrickObserved | kBrickSurface));
+      continue;
+    }
+    surface += (tight.brick_flags()[b] & kBrickSurface) != 0;
+    const std::size_t i = tight.brick_base(b), j = vol.brick_base(b);
+    CHECK(std::memcmp(tight.tsdf() + i, vol.tsdf() + j, kBrickVoxels * sizeof(int16_t)) == 0);
+    CHECK(std::memcmp(tight.weight() + i, vol.weight() + j, kBrickVoxels) == 0);
+  }
+  for (int i = 0; i < kBrickVoxels; ++i) CHECK(tight.weight()[i] == 0 && tight.tsdf()[i] == kTsdfUnobserved);
+  std::printf(", a pool of %u: %llu stores refused, %d surface bricks kept", small.pool_bricks,
+              static_cast<unsigned long long>(tight.bricks_refused()), surface);
+  CHECK(surface > 0);
+
+  // Where the pool refused the sphere's front, the ray may meet the plane behind it: every hit
+  // must lie on one of the scene's two surfaces.
+  Maps tight_maps;
+  CHECK(raycast<float>(tight, cam, poses[0], tight_maps.views(cam)) == Status::kOk);
+  std::vector<float> off_surface;
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u) {
+      const float z = tight_maps.depth[std::size_t(v) * cam.width + u];
+      if (!(z > 0.0f)) continue;
+      const Vec3f p = poses[0] * Vec3f((float(u) - cam.cx) / cam.fx * z, (float(v) - cam.cy) / cam.fy * z, z);
+      off_surface.push_back(std::min(std::fabs((p - Vec3f(0.0f, 0.0f, 0.8f)).norm() - 0.12f), std::fabs(p.z() - 1.0f)));
+    }
+  std::sort(off_surface.begin(), off_surface.end());
+  CHECK(off_surface.size() > 1000);
+  const float median = off_surface[off_surface.size() / 2], p99 = off_surface[off_surface.size() * 99 / 100];
+  std::printf(", raycast: %zu hits, off the surfaces median %.3f mm, p99 %.3f mm", off_surface.size(), 1e3 * median,
+              1e3 * p99);
+  CHECK(median < 0.1f * kVoxel);
+  CHECK(p99 < 0.5f * kVoxel);
+  tight.clear();
+  CHECK_EQUAL(0u, tight.bricks_in_use());
+  CHECK_EQUAL(0u, tight.bricks_refused());
 }

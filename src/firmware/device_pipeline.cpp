@@ -819,6 +819,8 @@ void DevicePipeline::run_localization() {
               size_t(mapper_.map_frames()), report.surface_points, loc_.context().has_floor ? "found" : "not found",
               report.count, request.segments ? "segments" : "objects", wall_ms, threads_, last_localize_cpu_ms_,
               hal::process_cpu_ms() - process0_ms);
+  std::printf("localize: space %u of %u bricks in use%s\n", volume_.bricks_in_use(), volume_.pool_bricks() - 1u,
+              volume_.bricks_refused() > 0 ? "; the pool is full: bricks refused, the map stopped growing" : "");
   if (tracked() && sim_truth(cams_[order_[0]].index) != nullptr)
     std::printf("localize: tracking: %u lost frames, last pose %.2f mm from the backend's truth\n",
                 unsigned(lost_frames_), double(track_err_m_) * 1e3);

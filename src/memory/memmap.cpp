@@ -18,10 +18,12 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   out.voxels.weight = static_cast<uint8_t*>(at(Region::kVoxelWeight));
   out.voxels.colour = static_cast<Rgb8*>(at(Region::kVoxelColour));
   out.voxels.colour_weight = static_cast<uint8_t*>(at(Region::kVoxelColourWeight));
+  out.voxels.brick_slot = static_cast<uint32_t*>(at(Region::kBrickSlots));
   out.voxels.brick_flags = static_cast<uint8_t*>(at(Region::kBrickFlags));
   out.voxels.brick_list = static_cast<uint32_t*>(at(Region::kBrickList));
   out.voxels.block_mask = static_cast<uint64_t*>(at(Region::kBlockMasks));  // raycast: per-brick block masks
   out.voxels.capacity_dim = c.volume_dim;
+  out.voxels.pool_bricks = c.pool_bricks;
   out.depth_frames = static_cast<uint16_t*>(at(Region::kDepthFrames));
   out.colour_frames = static_cast<Rgb8*>(at(Region::kColourFrames));
   out.ray_norms = static_cast<float*>(at(Region::kRayNorms));

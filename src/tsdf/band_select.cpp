@@ -32,18 +32,27 @@ namespace edgefuse {
 namespace {
 
 struct BrickLister {
+  TsdfVolume& volume;
   uint8_t* flags;
   uint32_t* list;
   std::size_t count;
   int nb;
 
-  //! Lists brick (bx, by, bz) once; `band` marks it kBrickBand (its voxels all go through the
-  //! brick loop), else it stays margin-only unless some other region lists it as band.
+  //! Lists brick (bx, by, bz) once, giving it a pool slot; `band` marks it kBrickBand (its voxels
+  //! all go through the brick loop), else it stays margin-only unless some other region lists it
+  //! as band. A full pool leaves the brick out (TsdfVolume::store_brick counts it); the last
+  //! quarter of the pool is kept for band bricks, so that free margin (about two thirds of the
+  //! bricks a frame lists on bin_rig_a) cannot crowd out surface.
   void add(int bx, int by, int bz, bool band) {
     const std::size_t b = (std::size_t(bz) * nb + std::size_t(by)) * nb + std::size_t(bx);
-    if (!(flags[b] & kBrickListed)) list[count++] = uint32_t(b);
+    if (!(flags[b] & kBrickListed)) {
+      if (!band && !volume.brick_stored(b) && volume.bricks_in_use() >= margin_limit()) return;
+      if (!volume.store_brick(b)) return;
+      list[count++] = uint32_t(b);
+    }
     flags[b] |= band ? uint8_t(kBrickListed | kBrickBand) : uint8_t(kBrickListed);
   }
+  uint32_t margin_limit() const { return volume.pool_bricks() - volume.pool_bricks() / 4u; }
   //! Lists every brick of the box [lo, hi] (brick coordinates, clipped to the volume).
   void add_box(const int lo[3], const int hi[3], bool band) {
     int a[3], b[3];
@@ -236,7 +245,7 @@ std::size_t select_band_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr
   if (!volume.initialised() || frame.depth.empty() || frame.depth.width != intr.width ||
       frame.depth.height != intr.height || intr.validate() != Status::kOk)
     return 0;
-  BrickLister out{volume.brick_flags(), volume.brick_list(), 0, volume.bricks_per_axis()};
+  BrickLister out{volume, volume.brick_flags(), volume.brick_list(), 0, volume.bricks_per_axis()};
   list_band(out, volume, intr, frame, T_world_cam);
   list_surface(out, volume, intr, T_world_cam);
   return out.count;

@@ -41,7 +41,7 @@ inline uint64_t compute(const int16_t* brick_tsdf) {
 inline void refresh(TsdfVolume& volume, std::size_t brick) {
   uint64_t* masks = volume.block_mask();
   if (masks == nullptr) return;
-  masks[brick] = compute(volume.tsdf() + brick * kBrickVoxels);
+  masks[brick] = compute(volume.tsdf() + volume.brick_base(brick));
 }
 
 }  // namespace block_mask

@@ -1,5 +1,5 @@
 // Shared by extract_points.cpp and marching_cubes.cpp (private to src/tsdf): brick-major grid
-// stepping, the TSDF gradient and the sample (position, normal, colour) at an edge's zero crossing.
+// neighbour steps, the TSDF gradient and the sample (position, normal, colour) at an edge's zero crossing.
 #pragma once
 
 #include <cmath>
@@ -18,8 +18,10 @@ inline constexpr std::ptrdiff_t kInBrickStep[3] = {1, kBrickSide, kBrickSide * k
 
 inline bool in_band(int16_t t) { return t > -kTsdfMax && t < kTsdfMax; }
 
-//! Read-only view of a volume with the strides of its brick-major layout.
+//! Read-only view of a volume: its arrays, and the neighbour steps of its brick pool (inside a
+//! brick a fixed stride, across a brick face through the index).
 struct Grid {
+  const TsdfVolume& volume;
   const int16_t* tsdf;
   const uint8_t* weight;
   const Rgb8* colour;            //!< null without colour
@@ -27,12 +29,12 @@ struct Grid {
   const uint8_t* flags;
   int dim;
   int nb;                       //!< bricks per axis
-  std::ptrdiff_t cross[3];      //!< index step to the next voxel along an axis from local coordinate 7
   Vec3f origin;
   float voxel;
 
   explicit Grid(const TsdfVolume& v)
-      : tsdf(v.tsdf()),
+      : volume(v),
+        tsdf(v.tsdf()),
         weight(v.weight()),
         colour(v.colour()),
         colour_weight(v.colour_weight()),
@@ -40,16 +42,22 @@ struct Grid {
         dim(v.dim()),
         nb(v.bricks_per_axis()),
         origin(v.origin_m()),
-        voxel(v.voxel_m()) {
-    const std::ptrdiff_t brick_step[3] = {kBrickVoxels, std::ptrdiff_t(nb) * kBrickVoxels,
-                                          std::ptrdiff_t(nb) * nb * kBrickVoxels};
-    for (int d = 0; d < 3; ++d) cross[d] = brick_step[d] - (kBrickSide - 1) * kInBrickStep[d];
-  }
+        voxel(v.voxel_m()) {}
 
-  //! Index step to the +1 neighbour along axis d of a voxel whose local (in-brick) coordinate is l.
-  std::ptrdiff_t plus(int d, int l) const { return l < kBrickSide - 1 ? kInBrickStep[d] : cross[d]; }
-  //! Index step to the -1 neighbour along axis d (local coordinate l).
-  std::ptrdiff_t minus(int d, int l) const { return l > 0 ? -kInBrickStep[d] : -cross[d]; }
+  //! Index of the +1 neighbour along axis d of voxel c (index idx); c[d] + 1 must lie in the grid.
+  std::size_t up(std::size_t idx, const int c[3], int d) const {
+    if ((c[d] & (kBrickSide - 1)) != kBrickSide - 1) return idx + std::size_t(kInBrickStep[d]);
+    int n[3] = {c[0], c[1], c[2]};
+    ++n[d];
+    return volume.index(n[0], n[1], n[2]);
+  }
+  //! Index of the -1 neighbour along axis d of voxel c (index idx); c[d] - 1 must lie in the grid.
+  std::size_t down(std::size_t idx, const int c[3], int d) const {
+    if ((c[d] & (kBrickSide - 1)) != 0) return idx - std::size_t(kInBrickStep[d]);
+    int n[3] = {c[0], c[1], c[2]};
+    --n[d];
+    return volume.index(n[0], n[1], n[2]);
+  }
 };
 
 //! TSDF gradient at voxel c (index idx) in stored units per voxel. Central differences; where a
@@ -60,18 +68,17 @@ inline Vec3f gradient(const Grid& g, const int c[3], std::size_t idx) {
   const float t0 = float(g.tsdf[idx]);
   Vec3f grad;
   for (int d = 0; d < 3; ++d) {
-    const int l = c[d] & (kBrickSide - 1);
     int tier_p = 0, tier_m = 0;  // 0: unusable, 1: observed but truncated, 2: observed, in band
     float tp = 0.0f, tm = 0.0f;
     if (c[d] + 1 < g.dim) {
-      const std::size_t j = std::size_t(std::ptrdiff_t(idx) + g.plus(d, l));
+      const std::size_t j = g.up(idx, c, d);
       if (g.weight[j] != 0) {
         tp = float(g.tsdf[j]);
         tier_p = in_band(g.tsdf[j]) ? 2 : 1;
       }
     }
     if (c[d] > 0) {
-      const std::size_t j = std::size_t(std::ptrdiff_t(idx) + g.minus(d, l));
+      const std::size_t j = g.down(idx, c, d);
       if (g.weight[j] != 0) {
         tm = float(g.tsdf[j]);
         tier_m = in_band(g.tsdf[j]) ? 2 : 1;

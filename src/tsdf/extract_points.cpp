@@ -38,8 +38,7 @@ Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t c
         const bool open[3] = {bx + 1 < nb && (g.flags[b + 1] & kBrickSurface) != 0,
                               by + 1 < nb && (g.flags[b + std::size_t(nb)] & kBrickSurface) != 0,
                               bz + 1 < nb && (g.flags[b + nb2] & kBrickSurface) != 0};
-        const std::size_t base = b * kBrickVoxels;
-        std::size_t idx = base;
+        std::size_t idx = volume.brick_base(b);
         for (int lz = 0; lz < kBrickSide; ++lz) {
           for (int ly = 0; ly < kBrickSide; ++ly) {
             for (int lx = 0; lx < kBrickSide; ++lx, ++idx) {
@@ -48,14 +47,14 @@ Status extract_points(const TsdfVolume& volume, SurfacePoint* out, std::size_t c
               if (!in_band(t0)) continue;
               const bool neg0 = t0 < 0;
               const int local[3] = {lx, ly, lz};
+              const int c[3] = {bx * kBrickSide + lx, by * kBrickSide + ly, bz * kBrickSide + lz};
               for (int d = 0; d < 3; ++d) {
                 const bool last = local[d] == kBrickSide - 1;
                 if (last && !open[d]) continue;
-                const std::size_t j = idx + std::size_t(last ? g.cross[d] : kInBrickStep[d]);
+                const std::size_t j = g.up(idx, c, d);
                 const int16_t t1 = t[j];
                 if ((t1 < 0) == neg0 || w[j] < w_min || !in_band(t1)) continue;
                 if (count == capacity) return Status::kOutputTruncated;
-                const int c[3] = {bx * kBrickSide + lx, by * kBrickSide + ly, bz * kBrickSide + lz};
                 EdgeSample e;
                 edge_sample(g, c, idx, d, j, e);
                 SurfacePoint& p = out[count++];

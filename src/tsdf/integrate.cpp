@@ -410,8 +410,9 @@ void integrate_bricks_as(TsdfVolume& volume, const IntegrationJob<Real>& job, st
     for (int r = 0; r < 3; ++r) c0[r] = job.R[r * 3] * w0[0] + job.R[r * 3 + 1] * w0[1] + job.R[r * 3 + 2] * w0[2] + job.t[r];
 
     const BrickClass cls = classify_box(job, cam, c0, span, near_z, true);
-    if (cls == BrickClass::kSkip) continue;
-    const std::size_t base = std::size_t(brick) * kBrickVoxels;
+    // A brick without a pool slot (the frustum list of a colour pass) has nothing to update.
+    if (cls == BrickClass::kSkip || !volume.brick_stored(brick)) continue;
+    const std::size_t base = volume.brick_base(brick);
     bool surface = false, observed = false;
     if (colour_only && (cls == BrickClass::kFreeSpace || (flags[brick] & kBrickSurface) == 0)) continue;
     if (cls == BrickClass::kFreeSpace) {

@@ -154,6 +154,7 @@ inline bool integrate_profile_brick(TsdfVolume& volume, const ProfileKernel<Real
   int16_t* tsdf = volume.tsdf();
   uint8_t* weight = volume.weight();
   bool observed = false;
+  const std::size_t brick = volume.brick_index(bx, by, bz);
   const int z_end = (bz << 3) + 7 < hi[2] ? (bz << 3) + 7 : hi[2];
   const int y_end = (by << 3) + 7 < hi[1] ? (by << 3) + 7 : hi[1];
   const int x_end = (bx << 3) + 7 < hi[0] ? (bx << 3) + 7 : hi[0];
@@ -169,6 +170,8 @@ inline bool integrate_profile_brick(TsdfVolume& volume, const ProfileKernel<Real
         if (!profile_sample(k, w, d, wt)) continue;
         int32_t q = d >= k.trunc ? kTsdfMax : round_int(d * k.inv_trunc * k.q_scale);
         q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
+        // The brick gets its pool slot with its first sample; a full pool leaves it out (counted).
+        if (!volume.brick_stored(brick) && !volume.store_brick(brick)) return false;
         const std::size_t idx = volume.index(x, y, z);
         const int32_t old_w = weight[idx];
         if (old_w == k.max_weight && tsdf[idx] == kTsdfMax && q == kTsdfMax) continue;

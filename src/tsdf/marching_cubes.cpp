@@ -112,24 +112,27 @@ inline void polygonise_cell(MeshWalk& m, int x, int y, unsigned cube, const std:
     m.sink.add_triangle(vid[tri[0]], vid[tri[1]], vid[tri[2]]);
 }
 
-// The cells of row ly of brick b (bricks bx, by) in layer m.z whose bit is set in `wanted`.
-inline void polygonise_row(MeshWalk& m, std::size_t b, int bx, int by, int ly, unsigned wanted) {
+// The cells of row ly of brick column (bx, by) in layer m.z whose bit is set in `wanted`.
+inline void polygonise_row(MeshWalk& m, int bx, int by, int ly, unsigned wanted) {
   const Grid& g = m.g;
-  const int lz = m.z & 7;
-  const std::ptrdiff_t dz = g.plus(2, lz);
-  const std::ptrdiff_t dy = g.plus(1, ly);
-  const int y = by * kBrickSide + ly;
+  const int y = by * kBrickSide + ly, x0 = bx * kBrickSide;
   const bool has_next_x = bx + 1 < g.nb;
-  // The 8 cells of this row: signs of their four corner rows (y, z), (y+1, z), (y, z+1),
-  // (y+1, z+1), 9 voxels each (bit i: x = 8 bx + i, bit 8 from the next brick).
-  const std::size_t row = b * kBrickVoxels + std::size_t((lz << 6) | (ly << 3));
-  const std::size_t rows[4] = {row, row + std::size_t(dy), row + std::size_t(dz), row + std::size_t(dy + dz)};
+  // The cells' four corner rows (y, z), (y+1, z), (y, z+1), (y+1, z+1): 8 voxels each in this
+  // brick column (row r's own brick: the rows may cross into the +y or +z brick) and a 9th, x =
+  // 8 bx + 8, in the next brick along x. Bricks sit anywhere in the pool, so each row's start
+  // comes from the index.
+  std::size_t rows[4], next[4] = {0, 0, 0, 0};
   unsigned sign[4];
   for (int r = 0; r < 4; ++r) {
+    const int yy = y + (r & 1), zz = m.z + (r >> 1);
+    rows[r] = m.volume.index(x0, yy, zz);
     const int16_t* v = g.tsdf + rows[r];
     unsigned mk = 0;
     for (int i = 0; i < kBrickSide; ++i) mk |= unsigned(v[i] < 0) << i;
-    if (has_next_x) mk |= unsigned(v[kBrickSide - 1 + g.cross[0]] < 0) << kBrickSide;
+    if (has_next_x) {
+      next[r] = m.volume.index(x0 + kBrickSide, yy, zz);
+      mk |= unsigned(g.tsdf[next[r]] < 0) << kBrickSide;
+    }
     sign[r] = mk;
   }
   const unsigned any = sign[0] | sign[1] | sign[2] | sign[3];
@@ -140,17 +143,13 @@ inline void polygonise_row(MeshWalk& m, std::size_t b, int bx, int by, int ly, u
     const unsigned a0 = sign[0] >> lx, a1 = sign[1] >> lx, a2 = sign[2] >> lx, a3 = sign[3] >> lx;
     const unsigned cube = (a0 & 3u) | (a1 << 1 & 4u) | (a1 << 3 & 8u) | (a2 << 4 & 16u) | (a2 << 4 & 32u) |
                           (a3 << 5 & 64u) | (a3 << 7 & 128u);
-    const std::size_t idx0 = row + std::size_t(lx);
-    const std::size_t i1 = idx0 + std::size_t(g.plus(0, lx));
-    const std::size_t ci[8] = {idx0,
-                               i1,
-                               i1 + std::size_t(dy),
-                               idx0 + std::size_t(dy),
-                               idx0 + std::size_t(dz),
-                               i1 + std::size_t(dz),
-                               i1 + std::size_t(dy + dz),
-                               idx0 + std::size_t(dy + dz)};
-    polygonise_cell(m, bx * kBrickSide + lx, y, cube, ci);
+    std::size_t at[4], after[4];  // each row's voxel at x and at x + 1
+    for (int r = 0; r < 4; ++r) {
+      at[r] = rows[r] + std::size_t(lx);
+      after[r] = lx < kBrickSide - 1 ? at[r] + 1u : next[r];
+    }
+    const std::size_t ci[8] = {at[0], after[0], after[1], at[1], at[2], after[2], after[3], at[3]};
+    polygonise_cell(m, x0 + lx, y, cube, ci);
   }
 }
 
@@ -171,7 +170,7 @@ inline void polygonise_brick(MeshWalk& m, int bx, int by) {
   const bool edges_only = !(g.flags[b] & kBrickSurface) && lz < kBrickSide - 1;
   for (int ly = 0; ly < ly_end; ++ly) {
     const unsigned wanted = edges_only && ly < kBrickSide - 1 ? columns & 0x80u : columns;
-    if (wanted != 0) polygonise_row(m, b, bx, by, ly, wanted);
+    if (wanted != 0) polygonise_row(m, bx, by, ly, wanted);
   }
 }
 

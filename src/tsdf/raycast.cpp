@@ -290,8 +290,7 @@ class RayMarcher {
         f_(make_ray_frame<Real>(volume, intr, T_world_cam)), flags_(volume.brick_flags()),
         tsdf_(volume.tsdf()), colour_(volume.colour()), colour_weight_(volume.colour_weight()),
         quant_(intr.max_range_m), last_(uint32_t(volume.dim() - 1)),
-        nb_(uint32_t(volume.bricks_per_axis())), nb2_(nb_ * nb_), dy_wrap_(nb_ * kBrickVoxels - 56u),
-        dz_wrap_(nb2_ * kBrickVoxels - 448u),
+        nb_(uint32_t(volume.bricks_per_axis())), nb2_(nb_ * nb_), slot_(volume.brick_slots()),
         // Slack around the pixel's range (raycast_bounds.hpp; exact only up to float rounding):
         // every crossing lies inside the range, so the march's first sample is at least this far
         // in front of it. At least a voxel; and half a truncation less a quarter voxel, because a
@@ -396,35 +395,65 @@ class RayMarcher {
     return true;
   }
 
-  // The trilinear cell with base `cell`, addressed for the march: the linear index of its
-  // base voxel and the index offsets to its +x, +y, +z neighbours (which jump to the next brick
-  // from a brick's last voxel). The base index over 512 is the brick's index.
+  // The trilinear cell with base `cell`, addressed for the march: the pool indices of its 8
+  // corners (corner k: +x for bit 0, +y for bit 1, +z for bit 2), the grid brick of its base
+  // voxel, and whether its x-pairs are adjacent in memory. i[0] identifies the cell among the
+  // observed ones (a base in the empty brick, slot 0, makes the cell unobserved).
   struct CellAddress {
-    uint32_t base, dx, dy, dz;
+    uint32_t i[8];
+    uint32_t brick;
+    bool x_adjacent;
+    uint32_t base() const { return i[0]; }
   };
-  // The cell's address from three table reads (instead of ~30 instructions of shifts, masks and
-  // selects: it is computed for every sample). Each entry holds, for one coordinate c on one axis,
-  // the part of the linear index c contributes (low 32 bits; the sum over the axes is
-  // TsdfVolume::index, below 2^32, so the 64-bit sum does not carry into the high half) and the
-  // index offset from c to c + 1 (high 32 bits). The cell must lie in the grid.
+  // The cell's address. Three table reads give the base voxel's grid brick and its offset in the
+  // brick (instead of ~30 instructions of shifts and masks: it is computed for every sample), one
+  // index read its pool slot. A cell inside one brick (7 of 8 along each axis) has its corners at
+  // fixed offsets; one reaching into the next brick along an axis reads that brick's slot.
+  // The cell must lie in the grid.
   CellAddress address(const int cell[3]) const {
-    const uint64_t ex = axis_entry_[0][cell[0]], ey = axis_entry_[1][cell[1]], ez = axis_entry_[2][cell[2]];
+    const uint64_t e = axis_entry_[0][cell[0]] + axis_entry_[1][cell[1]] + axis_entry_[2][cell[2]];
     CellAddress a;
-    a.base = uint32_t(ex + ey + ez);
-    a.dx = uint32_t(ex >> 32);
-    a.dy = uint32_t(ey >> 32);
-    a.dz = uint32_t(ez >> 32);
+    a.brick = uint32_t(e >> 32);
+    const uint32_t local = uint32_t(e);
+    const uint32_t base = (slot_[a.brick] << 9) + local;
+    const unsigned cross = unsigned((cell[0] & 7) == 7) | unsigned((cell[1] & 7) == 7) << 1 |
+                           unsigned((cell[2] & 7) == 7) << 2;
+    a.x_adjacent = (cross & 1u) == 0;
+    if (cross == 0) {
+      for (int k = 0; k < 8; ++k) a.i[k] = base + uint32_t((k & 1) | (k & 2) << 2 | (k & 4) << 4);
+      return a;
+    }
+    a.i[0] = base;
+    const uint32_t brick_step[3] = {1u, nb_, nb2_};
+    for (int k = 1; k < 8; ++k) {
+      uint32_t brick = a.brick, off = local;
+      for (int axis = 0; axis < 3; ++axis) {
+        if (!((k >> axis) & 1)) continue;
+        const uint32_t unit = 1u << (3 * axis);
+        if ((cross >> axis) & 1u) {
+          brick += brick_step[axis];
+          off -= 7u * unit;  // local coordinate 7 -> 0 of the next brick
+        } else {
+          off += unit;
+        }
+      }
+      a.i[k] = (brick == a.brick ? base - local : slot_[brick] << 9) + off;
+    }
     return a;
   }
-  // The index offset from coordinate c to c + 1 on `axis` (address()'s dx, dy or dz).
-  uint32_t step_up(int axis, int c) const { return uint32_t(axis_entry_[axis][c] >> 32); }
-  // The table entry of coordinate c on `axis` (see address()).
+  // The pool index of voxel c - 1 along `axis` from voxel c (index idx); c[axis] >= 1.
+  uint32_t step_down(uint32_t idx, const int c[3], int axis) const {
+    if ((c[axis] & 7) != 0) return idx - (1u << (3 * axis));
+    int n[3] = {c[0], c[1], c[2]};
+    --n[axis];
+    return uint32_t(volume_.index(n[0], n[1], n[2]));
+  }
+  // The table entry of coordinate c on `axis` (see address()): the coordinate's part of the grid
+  // brick index (high 32 bits) and of the offset in the brick (low 32 bits; the three sum below
+  // 512, so the 64-bit sum does not carry into the high half).
   uint64_t axis_entry(int axis, uint32_t c) const {
     const uint32_t bricks = axis == 0 ? 1u : (axis == 1 ? nb_ : nb2_);
-    const uint32_t part = (((c >> 3) * bricks) << 9) | ((c & 7u) << (3 * axis));
-    const uint32_t wrap[3] = {uint32_t(kBrickVoxels) - 7u, dy_wrap_, dz_wrap_};  // +1 from a brick's last voxel
-    const uint32_t step = (c & 7u) == 7u ? wrap[axis] : 1u << (3 * axis);
-    return uint64_t(part) | uint64_t(step) << 32;
+    return uint64_t((c >> 3) * bricks) << 32 | uint64_t((c & 7u) << (3 * axis));
   }
   // True when the cell with base `cell` lies inside the grid (its +1 corners too).
   bool in_grid(const int cell[3]) const {
@@ -452,15 +481,15 @@ class RayMarcher {
   }
   // Reads the 8 corners of the cell at `a` into `out`.
   const CellCorners<Real>& load_corners(const CellAddress& a, CellCorners<Real>& out) const {
-    const uint32_t i0 = a.base, i1 = i0 + a.dx, i2 = i0 + a.dy, i3 = i2 + a.dx;
-    const uint32_t i4 = i0 + a.dz, i5 = i4 + a.dx, i6 = i4 + a.dy, i7 = i6 + a.dx;
-    out.base = a.base;
+    const uint32_t i0 = a.i[0], i1 = a.i[1], i2 = a.i[2], i3 = a.i[3];
+    const uint32_t i4 = a.i[4], i5 = a.i[5], i6 = a.i[6], i7 = a.i[7];
+    out.base = a.base();
     if constexpr (std::is_same<Real, float>::value) {
       using namespace cell_lanes;
       // The 4 x-pairs (corner 2j, 2j + 1) as 32-bit lanes, low half the first (little endian:
       // x86-64, aarch64, armhf). Inside a brick the pair is adjacent in memory: one load.
       I4 pairs;
-      if (a.dx == 1u) {
+      if (a.x_adjacent) {
         int32_t w0, w1, w2, w3;
         std::memcpy(&w0, tsdf_ + i0, 4);
         std::memcpy(&w1, tsdf_ + i2, 4);
@@ -525,7 +554,7 @@ class RayMarcher {
     if (!in_grid(cell)) return false;
     const CellAddress a = address(cell);
     CellCorners<Real> read;
-    const CellCorners<Real>* k = a.base == known.base ? &known : &load_corners(a, read);
+    const CellCorners<Real>* k = a.base() == known.base ? &known : &load_corners(a, read);
     if (!k->observed) return false;
     out = lerp_cell(*k, g[0] - real_from_int<Real>(cell[0]), g[1] - real_from_int<Real>(cell[1]),
                     g[2] - real_from_int<Real>(cell[2]));
@@ -572,7 +601,7 @@ class RayMarcher {
     // The float build proved every sample's cell inside the grid in start().
     if (!std::is_same<Real, float>::value && !in_grid(cell)) return MarchResult::kMiss;
     const CellAddress a = address(cell);
-    const uint8_t bf = flags_[a.base >> 9];
+    const uint8_t bf = flags_[a.brick];
     if ((bf & (kBrickNearSurface | kBrickObserved)) != (kBrickNearSurface | kBrickObserved)) {
       // No surface in or next to this brick, or nothing observed in it (then every cell based
       // here has an unobserved corner): leave it whole.
@@ -601,7 +630,7 @@ class RayMarcher {
     const Real fx = g[0] - real_from_int<Real>(cell[0]);
     const Real fy = g[1] - real_from_int<Real>(cell[1]);
     const Real fz = g[2] - real_from_int<Real>(cell[2]);
-    const uint32_t ni = a.base + (fx < half ? 0u : a.dx) + (fy < half ? 0u : a.dy) + (fz < half ? 0u : a.dz);
+    const uint32_t ni = a.i[unsigned(!(fx < half)) | unsigned(!(fy < half)) << 1 | unsigned(!(fz < half)) << 2];
     const int16_t nq = tsdf_[ni];
     if (nq == kTsdfUnobserved) {
       // An unobserved corner: no surface can be here. A surface seen from this side has its
@@ -677,12 +706,11 @@ class RayMarcher {
     const int c[3] = {march_cell(g[0] + half), march_cell(g[1] + half), march_cell(g[2] + half)};
     const int last = int(last_);
     if (c[0] < 1 || c[1] < 1 || c[2] < 1 || c[0] >= last || c[1] >= last || c[2] >= last) return false;
-    const CellAddress centre = address(c);  // the +1 steps from c are the cell's dx, dy, dz
-    const uint32_t up[3] = {centre.dx, centre.dy, centre.dz};
+    const CellAddress centre = address(c);  // its corners 1, 2, 4 are c's +1 neighbours
     int16_t q[6];
     for (int a = 0; a < 3; ++a) {
-      q[2 * a] = tsdf_[centre.base - step_up(a, c[a] - 1)];
-      q[2 * a + 1] = tsdf_[centre.base + up[a]];
+      q[2 * a] = tsdf_[step_down(centre.base(), c, a)];
+      q[2 * a + 1] = tsdf_[centre.i[1 << a]];
     }
     // Unobserved (-32768) or truncated (+-32767) neighbours: x + 32766 (mod 2^16) lands at
     // 65533 or above exactly for those three values. One branch for all six.
@@ -699,8 +727,7 @@ class RayMarcher {
     const int cell[3] = {floor_int(g[0]), floor_int(g[1]), floor_int(g[2])};
     if (!in_grid(cell)) return out;
     const CellAddress a = address(cell);
-    const uint32_t idx[8] = {a.base,        a.base + a.dx,        a.base + a.dy,        a.base + a.dy + a.dx,
-                             a.base + a.dz, a.base + a.dz + a.dx, a.base + a.dz + a.dy, a.base + a.dz + a.dy + a.dx};
+    const uint32_t* idx = a.i;
     const float f[3] = {to_float(g[0] - real_from_int<Real>(cell[0])), to_float(g[1] - real_from_int<Real>(cell[1])),
                         to_float(g[2] - real_from_int<Real>(cell[2]))};
     return blend_corner_colours(colour_, colour_weight_, idx, f);
@@ -717,7 +744,8 @@ class RayMarcher {
   const Rgb8* colour_;
   const uint8_t* colour_weight_;
   const raycast_bounds::Quant quant_;
-  const uint32_t last_, nb_, nb2_, dy_wrap_, dz_wrap_;
+  const uint32_t last_, nb_, nb2_;
+  const uint32_t* slot_;  // the volume's brick index (pool slot per grid brick)
   const Real margin_;
   const bool want_vertex_, want_normal_, clear_colour_, want_colour_;
   uint64_t axis_entry_[3][kRaycastDimMax];  // address() per coordinate (24 KiB of stack)

@@ -205,12 +205,16 @@ uint64_t volume_checksum(const TsdfVolume& volume) {
     const unsigned char* b = static_cast<const unsigned char*>(data);
     for (std::size_t k = 0; k < bytes; ++k) checksum = (checksum ^ b[k]) * 1099511628211ull;
   };
-  const std::size_t voxels = volume.voxel_count();
-  mix(volume.tsdf(), voxels * sizeof(int16_t));
-  mix(volume.weight(), voxels);
+  // Brick by brick in grid order, whatever pool slots they sit in (bricks without a slot read the
+  // empty brick), so that the sum does not depend on the order bricks were first written.
+  auto mix_bricks = [&](const auto* array) {
+    for (std::size_t b = 0; b < volume.brick_count(); ++b) mix(array + volume.brick_base(b), kBrickVoxels * sizeof(*array));
+  };
+  mix_bricks(volume.tsdf());
+  mix_bricks(volume.weight());
   if (volume.has_colour()) {
-    mix(volume.colour(), voxels * sizeof(Rgb8));
-    mix(volume.colour_weight(), voxels);
+    mix_bricks(volume.colour());
+    mix_bricks(volume.colour_weight());
   }
   mix(volume.brick_flags(), volume.brick_count());
   return checksum;
@@ -271,7 +275,8 @@ void print_summary(const BenchOptions& o, const Bench& b, const FuseTimes& t, co
                 "hit %.1f%% (last)",
                 t.raycast_fuse_ms / n, c.raycast_ms / std::max(c.casts, 1), c.casts, c.prepare_ms / std::max(c.casts, 1),
                 100.0 * c.hits / b.cast_pixels);
-  std::printf("\nvolume checksum %016llx\n", static_cast<unsigned long long>(checksum));
+  std::printf("\nvolume checksum %016llx\n%s\n", static_cast<unsigned long long>(checksum),
+              b.core.space_usage().c_str());
 }
 
 // The same casts spread over a worker pool (started here, before the timed loop): wall clock

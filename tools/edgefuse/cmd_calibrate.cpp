@@ -151,17 +151,22 @@ bool maps_volume_settings(const Args& args, FuseSettings& settings, Failure& f) 
   return true;
 }
 
-// The board's voxel storage as two spaces of dim^3 voxels (distance and weight, no colour).
+// The board's voxel storage as two spaces of dim^3 voxels (distance and weight, no colour), each
+// with half the voxel pool.
 void split_voxel_storage(const VoxelStorage& all, int dim, VoxelStorage (&out)[2]) {
-  const std::size_t voxels = std::size_t(dim) * dim * dim, bricks = voxels / kBrickVoxels;
+  const std::size_t bricks = std::size_t(dim) * dim * dim / kBrickVoxels;
+  const uint32_t pool = all.pool_bricks / 2u;
+  const std::size_t pool_voxels = std::size_t(pool) * kBrickVoxels;
   out[0] = out[1] = all;
   for (VoxelStorage& s : out) {
     s.colour = nullptr;
     s.colour_weight = nullptr;
     s.capacity_dim = dim;
+    s.pool_bricks = pool;
   }
-  out[1].tsdf += voxels;
-  out[1].weight += voxels;
+  out[1].tsdf += pool_voxels;
+  out[1].weight += pool_voxels;
+  out[1].brick_slot += bricks;
   out[1].brick_flags += bricks;
   out[1].brick_list += bricks;
   if (out[1].block_mask != nullptr) out[1].block_mask += bricks;

@@ -189,6 +189,7 @@ bool write_outputs(const FuseOptions& o, const FuseRun& run, const FuseTimes& ti
     std::printf("mesh: %zu vertices, %zu triangles -> %s (%.1f ms)\n", mesh.mesh().vertices.size(),
                 mesh.mesh().triangles.size(), o.args.get("mesh").c_str(), ms_since(t0));
   }
+  std::printf("%s\n", core.space_usage().c_str());
   const double n = double(run.frame_count);
   std::printf("frames=%zu integrate_ms=%.3f raycast_ms=%.3f voxels=%zu\n", run.frame_count, times.integrate_ms / n,
               times.raycast_ms / n, voxels);

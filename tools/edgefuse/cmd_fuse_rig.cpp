@@ -300,6 +300,7 @@ bool write_outputs(const FuseRigOptions& o, RigCore& rc, double fuse_ms, Failure
       return fail(f, "mesh: " + (ms != Status::kOk ? std::string(to_string(ms)) : err));
     std::printf("mesh: %zu vertices -> %s\n", mesh.mesh().vertices.size(), o.args.get("mesh").c_str());
   }
+  std::printf("%s\n", core.space_usage().c_str());
   std::printf("sensors=%s points=%zu coloured=%zu voxels=%zu fuse_ms=%.1f\n", o.args.get("sensors").c_str(),
               cloud.size(), coloured, core.volume.observed_voxels(), fuse_ms);
   return true;

@@ -289,6 +289,7 @@ bool write_outputs(const TrackOptions& o, const TrackRun& run, Failure& f) {
                 xs == Status::kOutputTruncated ? " (truncated at the board's point capacity)" : "",
                 o.args.get("cloud").c_str());
   }
+  std::printf("%s\n", run.core.space_usage().c_str());
   print_totals(run.frame_count, run.sum);
   print_tracking_advice(run.frame_count, run.sum, o.settings);
   return true;

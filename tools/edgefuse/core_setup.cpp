@@ -1,6 +1,7 @@
 #include "core_setup.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 
 #include "edgefuse/io/pcd.hpp"
@@ -78,6 +79,24 @@ ViewCentreScratch CoreSetup::centre_scratch(const PinholeIntrinsics& intr) {
   s.zs = s.ys + n;
   s.capacity = n;
   return s;
+}
+
+std::string CoreSetup::space_usage() const {
+  const double brick_bytes = double(kBrickVoxels) * (volume.has_colour() ? 7.0 : 3.0);
+  const double mib = 1.0 / (1024.0 * 1024.0);
+  char line[256];
+  std::snprintf(line, sizeof line, "space: %u of %u bricks in use (%.1f of %.1f MiB of voxels)",
+                volume.bricks_in_use(), volume.pool_bricks() - 1u, volume.bricks_in_use() * brick_bytes * mib,
+                (volume.pool_bricks() - 1u) * brick_bytes * mib);
+  std::string out = line;
+  if (volume.bricks_refused() > 0) {
+    std::snprintf(line, sizeof line,
+                  "; %llu brick stores refused: the pool is full and the map stopped growing (larger voxels, "
+                  "or a board with more pool_bricks)",
+                  static_cast<unsigned long long>(volume.bricks_refused()));
+    out += line;
+  }
+  return out;
 }
 
 int CoreSetup::hit_percent(const RaycastMaps& maps) {

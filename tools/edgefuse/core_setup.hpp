@@ -54,6 +54,9 @@ struct CoreSetup {
   ImageView<uint16_t> spare_image(int width, int height) const;
   //! Scratch for centring a map on a view of `intr`'s size (start-up: allocates once).
   ViewCentreScratch centre_scratch(const PinholeIntrinsics& intr);
+  //! One line on the space's voxel pool: bricks in use of the board's, their memory, and the
+  //! bricks refused because the pool was full (the map stopped growing there).
+  std::string space_usage() const;
   //! Share of pixels a raycast hit, in percent.
   //! \param maps the raycast's maps
   static int hit_percent(const RaycastMaps& maps);

@@ -8,7 +8,8 @@ namespace edgefuse {
 
 struct BoardCapacities {
   const char* name;            //!< board folder name
-  int volume_dim;              //!< voxels per axis (multiple of 8)
+  int volume_dim;              //!< voxels per axis the space's index covers (multiple of 8)
+  uint32_t pool_bricks;        //!< 8^3-voxel bricks the voxel pool holds (the empty brick included)
   bool colour;                 //!< voxels carry RGB + colour weight
   int image_width_max;         //!< largest depth image per sensor, pixels
   int image_height_max;

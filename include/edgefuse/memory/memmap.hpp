@@ -25,6 +25,7 @@ enum class Region : int {
   kVoxelWeight,
   kVoxelColour,
   kVoxelColourWeight,
+  kBrickSlots,
   kBrickFlags,
   kBrickList,
   kDepthFrames,     //!< raw depth per sensor (uint16)
@@ -88,8 +89,9 @@ constexpr uint64_t align_up(uint64_t v, uint64_t a) { return (v + a - 1) / a * a
 
 //! The memory map of a board.
 constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
-  const uint64_t voxels = uint64_t(c.volume_dim) * c.volume_dim * c.volume_dim;
-  const uint64_t bricks = voxels / kBrickVoxels;
+  const uint64_t cube_voxels = uint64_t(c.volume_dim) * c.volume_dim * c.volume_dim;
+  const uint64_t bricks = cube_voxels / kBrickVoxels;        // of the cube the index covers
+  const uint64_t voxels = uint64_t(c.pool_bricks) * kBrickVoxels;  // of the voxel pool
   const uint64_t pixels = uint64_t(c.image_width_max) * c.image_height_max * c.sensors_max;
   const uint64_t tiles = uint64_t(FrameScratch::tiles_for(c.image_width_max, c.image_height_max)) * c.sensors_max;
   MemoryMap m{};
@@ -98,6 +100,7 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kVoxelWeight, "voxel weight (uint8)", voxels * sizeof(uint8_t));
   set(Region::kVoxelColour, "voxel colour (3 x uint8)", c.colour ? voxels * sizeof(Rgb8) : 0);
   set(Region::kVoxelColourWeight, "voxel colour weight (uint8)", c.colour ? voxels : 0);
+  set(Region::kBrickSlots, "brick index (pool slots)", bricks * sizeof(uint32_t));
   set(Region::kBrickFlags, "brick flags", bricks);
   set(Region::kBrickList, "brick work list", bricks * sizeof(uint32_t));
   set(Region::kDepthFrames, "depth frames", pixels * sizeof(uint16_t));

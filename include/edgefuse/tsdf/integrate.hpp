@@ -125,7 +125,8 @@ std::size_t select_band_bricks(TsdfVolume& volume, const PinholeIntrinsics& intr
                                const Pose& T_world_cam);
 
 //! Every brick inside the frustum, written to volume.brick_list(); returns how many. The colour
-//! pass (colour_pass.hpp) paints what it sees with it.
+//! pass (colour_pass.hpp) paints what it sees with it. It gives no brick a pool slot:
+//! integrate_bricks skips the listed bricks that have none.
 //! \param volume the space
 //! \param intr intrinsics (image bounds and range limits)
 //! \param T_world_cam sensor pose

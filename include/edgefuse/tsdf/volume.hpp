@@ -1,8 +1,14 @@
 // The truncated signed distance space (paper section 3.1) over caller-provided static storage.
 //
-// Layout: a cube of dim^3 voxels (dim a multiple of 8, at most the board's capacity) kept in
-// 8^3 bricks, brick-major: the 512 voxels of a brick are contiguous, so integration and
-// raycasting touch whole cache lines and can skip whole bricks. Each brick has a flag byte.
+// Layout: a cube of dim^3 voxels (dim a multiple of 8, at most the board's index capacity) cut
+// into 8^3 bricks. Only bricks that hold a measurement have voxels: they live in a fixed pool of
+// pool_bricks slots of 512 contiguous voxels each (so integration and raycasting touch whole cache
+// lines and can skip whole bricks), reached through a preallocated index (one slot number per
+// brick of the cube). Slot 0 is an empty brick, never written: every brick without its own slot
+// points at it, so a reader sees "unobserved" there without a test. Integration gives a brick a
+// slot the first time it writes into it; when the pool is full the brick is not stored and the
+// refusal is counted (bricks_refused()): the map keeps what it holds and stops growing. Each brick
+// of the cube has a flag byte.
 //
 // A voxel is compact, stored as parallel arrays (structure of arrays):
 //   tsdf    int16   distance / trunc, scaled so that +-32767 = +-1 (truncated); -32768 = unobserved
@@ -42,21 +48,33 @@ enum BrickFlag : uint8_t {
   kBrickListed = 16,
   //! With kBrickListed: the brick may hold band voxels of this frame (else only its free margin).
   kBrickBand = 32,
+  //! The brick needed a pool slot while the pool was full (counted once, until clear()).
+  kBrickRefused = 64,
 };
 
-//! Views of the static buffers of one volume; sizes are for capacity_dim^3 voxels.
+//! Views of the static buffers of one volume: the voxel pool holds pool_bricks * 512 voxels, the
+//! per-brick arrays (capacity_dim/8)^3 entries.
 struct VoxelStorage {
-  int16_t* tsdf = nullptr;            //!< capacity_dim^3
-  uint8_t* weight = nullptr;          //!< capacity_dim^3
-  Rgb8* colour = nullptr;             //!< capacity_dim^3, or null when the board has no colour
-  uint8_t* colour_weight = nullptr;   //!< capacity_dim^3, or null with colour
+  int16_t* tsdf = nullptr;            //!< pool_bricks * 512
+  uint8_t* weight = nullptr;          //!< pool_bricks * 512
+  Rgb8* colour = nullptr;             //!< pool_bricks * 512, or null when the board has no colour
+  uint8_t* colour_weight = nullptr;   //!< pool_bricks * 512, or null with colour
+  uint32_t* brick_slot = nullptr;     //!< (capacity_dim/8)^3: the pool slot of each brick, 0 = none
   uint8_t* brick_flags = nullptr;     //!< (capacity_dim/8)^3
   uint32_t* brick_list = nullptr;     //!< (capacity_dim/8)^3: bricks selected for one update
   //! (capacity_dim/8)^3, optional (null: the raycast bounds its search by whole bricks). Bit
   //! (z/2)*16 + (y/2)*4 + x/2 of a kBrickSurface brick is set when the 2^3 voxels at local
   //! (x, y, z) hold an observed distance <= 0; integration keeps it current (block_mask.hpp).
   uint64_t* block_mask = nullptr;
-  int capacity_dim = 0;               //!< voxels per axis the buffers hold
+  int capacity_dim = 0;               //!< voxels per axis the index covers
+  uint32_t pool_bricks = 0;           //!< slots in the voxel pool, slot 0 (the empty brick) included
+
+  //! Storage whose pool holds every brick of a capacity_dim^3 cube (tests and tools that need no
+  //! saving): pool_bricks = (capacity_dim/8)^3 + 1.
+  static uint32_t full_pool_for(int capacity_dim) {
+    const uint32_t nb = uint32_t(capacity_dim / 8);
+    return nb * nb * nb + 1u;
+  }
 };
 
 //! Default free margin (TsdfParams::free_margin_m): about the radius of a part a localiser
@@ -109,16 +127,41 @@ class TsdfVolume {
   int bricks_per_axis() const { return dim_ / kBrickSide; }
   std::size_t brick_count() const { return std::size_t(bricks_per_axis()) * bricks_per_axis() * bricks_per_axis(); }
   std::size_t voxel_count() const { return std::size_t(dim_) * dim_ * dim_; }
+  //! Slots of the voxel pool (the empty brick included) and how many are in use.
+  uint32_t pool_bricks() const { return s_.pool_bricks; }
+  uint32_t bricks_in_use() const { return slots_used_ - 1u; }
+  //! Bricks that needed a slot while the pool was full, since the last clear() (each counted once).
+  uint64_t bricks_refused() const { return bricks_refused_; }
+  //! Voxels the pool holds (slot 0 included): the extent of the voxel arrays.
+  std::size_t pool_voxels() const { return std::size_t(s_.pool_bricks) * kBrickVoxels; }
   float voxel_m() const { return params_.voxel_m; }
   const Vec3f& origin_m() const { return origin_m_; }
   const TsdfParams& params() const { return params_; }
   const WeightTable& weight_table() const { return weight_table_; }
 
-  //! Linear index of voxel (x, y, z), each in [0, dim).
+  //! Index into the voxel arrays of voxel (x, y, z), each in [0, dim); a brick without a slot
+  //! gives an index into the empty brick (read only).
   std::size_t index(int x, int y, int z) const {
     const int nb = bricks_per_axis();
     const std::size_t brick = (std::size_t(z >> 3) * nb + std::size_t(y >> 3)) * nb + std::size_t(x >> 3);
-    return brick * kBrickVoxels + std::size_t(((z & 7) << 6) | ((y & 7) << 3) | (x & 7));
+    return brick_base(brick) + std::size_t(((z & 7) << 6) | ((y & 7) << 3) | (x & 7));
+  }
+  //! Index of the first voxel of a brick (0, the empty brick, when it has no slot).
+  std::size_t brick_base(std::size_t brick) const { return std::size_t(s_.brick_slot[brick]) * kBrickVoxels; }
+  //! True when the brick has voxels of its own.
+  bool brick_stored(std::size_t brick) const { return s_.brick_slot[brick] != 0; }
+  //! Gives the brick a pool slot, its voxels unobserved, unless it has one; false (and counted)
+  //! when the pool is full. Not thread-safe: integration calls it while listing bricks.
+  bool store_brick(std::size_t brick) {
+    if (s_.brick_slot[brick] != 0) return true;
+    if (slots_used_ >= s_.pool_bricks) {
+      if (!(s_.brick_flags[brick] & kBrickRefused)) ++bricks_refused_;
+      s_.brick_flags[brick] |= kBrickRefused;
+      return false;
+    }
+    s_.brick_slot[brick] = slots_used_;
+    reset_slot(slots_used_++);
+    return true;
   }
   std::size_t brick_index(int bx, int by, int bz) const {
     const int nb = bricks_per_axis();
@@ -143,6 +186,8 @@ class TsdfVolume {
   const Rgb8* colour() const { return s_.colour; }
   uint8_t* colour_weight() { return s_.colour_weight; }
   const uint8_t* colour_weight() const { return s_.colour_weight; }
+  //! The brick index: the pool slot of each brick of the cube (0: the empty brick).
+  const uint32_t* brick_slots() const { return s_.brick_slot; }
   uint8_t* brick_flags() { return s_.brick_flags; }
   const uint8_t* brick_flags() const { return s_.brick_flags; }
   uint32_t* brick_list() { return s_.brick_list; }
@@ -153,7 +198,11 @@ class TsdfVolume {
   std::size_t observed_voxels() const;
 
  private:
+  void reset_slot(uint32_t slot);
+
   VoxelStorage s_;
+  uint32_t slots_used_ = 1;  // slot 0 is the empty brick
+  uint64_t bricks_refused_ = 0;
   int dim_ = 0;
   Vec3f origin_m_ = Vec3f::Zero();
   TsdfParams params_;
