@@ -17,8 +17,8 @@ TEST(MemMap, VoxelRegionsAreCompact) {
   CHECK(b != nullptr);
   const MemoryMap m = make_memory_map(*b);
   const uint64_t voxels = uint64_t(b->pool_bricks) * kBrickVoxels;
-  const uint64_t cube_bricks = 256ull * 256 * 256 / kBrickVoxels;
-  CHECK_EQUAL(256, b->volume_dim);
+  const uint64_t cube_bricks = 512ull * 512 * 512 / kBrickVoxels;
+  CHECK_EQUAL(512, b->volume_dim);
   CHECK(b->pool_bricks < cube_bricks);  // memory follows the surface, not the cube
   CHECK_EQUAL(voxels * 2, m.regions[int(Region::kVoxelTsdf)].bytes);
   CHECK_EQUAL(voxels, m.regions[int(Region::kVoxelWeight)].bytes);

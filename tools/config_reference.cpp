@@ -72,7 +72,8 @@ int main(int argc, char** argv) {
     std::string shown = d.type == ParamType::kString ? "\"" + std::string(value) + "\"" : value;
     // edgefused sets these two from the board's board.toml [tsdf] before the config file is read
     // (load_parameters in src/firmware/edgefused.cpp); the table's value is only the fallback.
-    const bool from_board = !std::strcmp(d.key, "tsdf.voxel_m") || !std::strcmp(d.key, "tsdf.trunc_m");
+    const bool from_board = !std::strcmp(d.key, "tsdf.dim") || !std::strcmp(d.key, "tsdf.voxel_m") ||
+                            !std::strcmp(d.key, "tsdf.trunc_m");
     std::printf("| `%s` | %s | `%s`%s | %s | %s | %s |\n", d.key, type_name(d.type), cell(shown).c_str(),
                 from_board ? " (the board's `[tsdf]`)" : "", cell(range).c_str(), d.live ? "yes" : "no",
                 cell(d.help).c_str());

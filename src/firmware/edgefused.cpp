@@ -201,8 +201,10 @@ bool load_parameters(const CommandLine& c, std::string& err) {
   hal::BoardDefaults bd;
   if (!hal::read_board_defaults(c.board, bd, err)) return false;
   char text[32], e[200];
+  std::snprintf(text, sizeof(text), "%d", bd.dim > 0 ? bd.dim : find_board(c.board.c_str())->volume_dim);
+  bool ok = g_params.set(runtime::kTsdfDim, text, e, sizeof(e));
   std::snprintf(text, sizeof(text), "%.9g", double(bd.voxel_m));
-  const bool ok = g_params.set(runtime::kTsdfVoxelM, text, e, sizeof(e));
+  ok = ok && g_params.set(runtime::kTsdfVoxelM, text, e, sizeof(e));
   std::snprintf(text, sizeof(text), "%.9g", double(bd.trunc_m));
   if (!ok || !g_params.set(runtime::kTsdfTruncM, text, e, sizeof(e))) {
     err = "board/" + c.board + "/board.toml: " + e;
@@ -253,6 +255,7 @@ bool start_device_pipeline(const std::string& board, std::string& err) {
   fc.board = board;
   fc.replay = g_params.get_text(runtime::kSensorsReplay);
   fc.models = g_params.get_text(runtime::kLocalizeModels);
+  fc.dim = int(g_params.get_int(runtime::kTsdfDim));
   fc.voxel_m = float(g_params.get_number(runtime::kTsdfVoxelM));
   fc.trunc_m = float(g_params.get_number(runtime::kTsdfTruncM));
   fc.bilateral = g_params.get_bool(runtime::kFiltersBilateral);
@@ -433,9 +436,9 @@ int run_edgefused(int argc, char** argv, runtime::Pipeline* pipeline) {
   if (code >= 0) return code;
   std::string err;
   if (!load_parameters(c, err) || !check_combinations(err)) return fail(err);
-  std::printf("edgefused %s: board %s, config %s, voxel %g m, truncation %g m\n", kVersion, c.board.c_str(),
-              c.config.empty() ? "(defaults)" : c.config.c_str(), g_params.get_number(runtime::kTsdfVoxelM),
-              g_params.get_number(runtime::kTsdfTruncM));
+  std::printf("edgefused %s: board %s, config %s, space %lld^3, voxel %g m, truncation %g m\n", kVersion, c.board.c_str(),
+              c.config.empty() ? "(defaults)" : c.config.c_str(), static_cast<long long>(g_params.get_int(runtime::kTsdfDim)),
+              g_params.get_number(runtime::kTsdfVoxelM), g_params.get_number(runtime::kTsdfTruncM));
   if (c.check_only) {  // everything above reads files only; the devices, ports and files below are not touched
     std::string dir;
     if (hal::board_data_dir(dir, err)) std::printf("board data: %s\n", dir.c_str());

@@ -34,6 +34,8 @@ const ParamDef kParamDefs[kParamCount] = {
      "folder of the calibration slots"},
     {"sensors.replay", ParamType::kString, 0, kParamTextMax, "", false,
      "host-sim: replay this rig set instead of the built-in scene"},
+    {"tsdf.dim", ParamType::kInt, 8, 4096, "256", false,
+     "voxels per axis of the space, a multiple of 8 up to the board's capacity.volume_dim"},
     {"tsdf.voxel_m", ParamType::kFloat, 0.0005, 0.05, "0.002", false, "voxel edge length"},
     {"tsdf.trunc_m", ParamType::kFloat, 0.001, 0.2, "0.008", false, "truncation distance"},
     // edgefused's pipeline: models, filters, tracking

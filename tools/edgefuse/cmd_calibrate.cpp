@@ -48,6 +48,7 @@ struct CalibrateOptions {
   int frames = 0;  // 0: every frame of A (set once the sequence is open)
   Pose guess;
   std::string poses;  // tracked | truth
+  int default_dim = 0;  // the board's default space (its [tsdf] dim)
 };
 
 bool parse_options(int argc, char** argv, CalibrateOptions& o, Failure& f) {
@@ -66,7 +67,7 @@ bool parse_options(int argc, char** argv, CalibrateOptions& o, Failure& f) {
   settings.voxel_m = defaults.voxel_m;
   settings.trunc_m = defaults.trunc_m;
   settings.max_weight = defaults.max_weight;
-  settings.dim = board.volume_dim;
+  settings.dim = o.default_dim = defaults.dim > 0 ? defaults.dim : board.volume_dim;
   if (!args.get_float("voxel", 1e-4f, 1.0f, settings.voxel_m, err) ||
       !args.get_float("trunc", 1e-4f, 10.0f, settings.trunc_m, err) ||
       !args.get_int("volume", 8, board.volume_dim, settings.dim, err) || !args.get_int("frames", 1, 100000, o.frames, err) ||
@@ -135,17 +136,19 @@ bool store_result(const Args& args, const std::string& a, const std::string& b, 
   return true;
 }
 
-// Two spaces share the board's voxel storage: the largest cube (a multiple of 8) of which two fit,
-// unless --volume; the voxel scaled to keep the board's extent, unless --voxel.
-bool maps_volume_settings(const Args& args, FuseSettings& settings, Failure& f) {
+// Two spaces share the board's voxel storage (each half the pool and its own part of the index):
+// the largest cube (a multiple of 8) of which two hold the voxels of the board's default space,
+// unless --volume; the voxel scaled to keep the default space's extent, unless --voxel.
+bool maps_volume_settings(const Args& args, int default_dim, FuseSettings& settings, Failure& f) {
   const BoardCapacities& board = build_board();
   const uint64_t cap3 = uint64_t(board.volume_dim) * board.volume_dim * board.volume_dim;
-  int dim = board.volume_dim;
-  while (dim > 8 && 2 * uint64_t(dim) * dim * dim > cap3) dim -= 8;
+  const uint64_t base3 = uint64_t(default_dim) * default_dim * default_dim;
+  int dim = default_dim;
+  while (dim > 8 && 2 * uint64_t(dim) * dim * dim > base3) dim -= 8;
   if (args.has("volume")) dim = settings.dim;
   if (2 * uint64_t(dim) * dim * dim > cap3)
-    return fail(f, "--volume " + std::to_string(dim) + ": two such spaces do not fit the board's voxel storage", 2);
-  if (!args.has("voxel")) settings.voxel_m = settings.voxel_m * float(board.volume_dim) / float(dim);
+    return fail(f, "--volume " + std::to_string(dim) + ": two such spaces do not fit the board's brick index", 2);
+  if (!args.has("voxel")) settings.voxel_m = settings.voxel_m * float(default_dim) / float(dim);
   if (!args.has("trunc")) settings.trunc_m = 4.0f * settings.voxel_m;
   settings.dim = dim;
   return true;
@@ -208,7 +211,7 @@ bool calibrate_maps(const CalibrateOptions& o, SensorPair& p, Failure& f) {
   RigCamera& a = p.a;
   RigCamera& b = p.b;
   std::string err;
-  if (!maps_volume_settings(args, settings, f)) return false;
+  if (!maps_volume_settings(args, o.default_dim, settings, f)) return false;
   CoreSetup core;
   if (!core.init(board, a.seq.intr, err)) return fail(f, err);
   if (!a.bind(core, true, err) || !b.bind(core, true, err)) return fail(f, err);

@@ -24,11 +24,11 @@ const char* kUsage =
     "usage: edgefuse fuse DATASET [--sensor NAME] [--frames N] [--voxel M] [--trunc M] [--volume N]\n"
     "                     [--origin X,Y,Z] [--out FILE.ply|.pcd] [--mesh FILE.ply] [--threads N]\n"
     "  Integrates the frames of DATASET (any layout of FORMATS.md) at their ground-truth poses.\n"
-    "  Defaults: voxel, truncation and threads from the board; volume = the board's capacity,\n"
+    "  Defaults: voxel, truncation, volume (voxels per axis) and threads from the board's [tsdf],\n"
     "  centred on what the first frame sees; --out fused.ply. Without --voxel, --volume and --origin,\n"
-    "  when that space holds less than 90 % of the first frame's points, the voxel grows (4 mm, 5 mm,\n"
-    "  1 cm, 2 cm) until it does, and a line says so; an explicit space is kept (a warning when it\n"
-    "  holds less than half).\n"
+    "  when that space holds less than 90 % of the first frame's points, it grows to the board's\n"
+    "  capacity per axis, then the voxel grows (4 mm, 5 mm, 1 cm, 2 cm) until it does, and a line\n"
+    "  says so; an explicit space is kept (a warning when it holds less than half).\n"
     "  With --sensors A,B,... (a rig set): several sensors into one space; see `edgefuse fuse RIGSET --sensors`.\n";
 
 double ms_since(std::chrono::steady_clock::time_point t0) {

@@ -30,8 +30,10 @@ int cmd_memmap(int argc, char** argv) {
     return 1;
   }
   const MemoryMap m = make_memory_map(*b);
-  std::printf("board %s: volume %d^3%s, images up to %dx%d x %d sensors, %u points, %d objects, %s build\n", b->name,
-              b->volume_dim, b->colour ? " with colour" : "", b->image_width_max, b->image_height_max, b->sensors_max,
+  std::printf("board %s: space up to %d^3, a pool of %u bricks of 8^3 voxels%s, images up to %dx%d x %d sensors, %u "
+              "points, %d objects, %s build\n",
+              b->name, b->volume_dim, b->pool_bricks, b->colour ? " with colour" : "", b->image_width_max,
+              b->image_height_max, b->sensors_max,
               b->points_max, b->objects_max, b->fixed_point ? "fixed-point" : "float");
   std::printf("%-30s %14s %10s\n", "buffer", "bytes", "MiB");
   for (const MemoryRegion& r : m.regions)

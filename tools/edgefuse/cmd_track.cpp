@@ -38,10 +38,11 @@ const char* kUsage =
     "  Tracks the sensor through DATASET (any layout of FORMATS.md) by ICP against the fused model and\n"
     "  fuses the frames at the estimated poses. The first pose is the data set's first ground-truth\n"
     "  pose, or the identity without one. Defaults: voxel, truncation and threads from the board (4\n"
-    "  voxels of truncation when only --voxel is given); volume = the board's capacity, centred on\n"
+    "  voxels of truncation when only --voxel is given); volume from the board's [tsdf] too, centred on\n"
     "  what the first frame sees; --out track.txt. Without --voxel and --volume, when that space holds\n"
-    "  less than 90 % of the first frame's points, the voxel grows (4 mm, 5 mm, 1 cm, 2 cm) until it\n"
-    "  does, and a line says so; an explicit space is kept (a warning when it holds less than half).\n"
+    "  less than 90 % of the first frame's points, it grows to the board's capacity per axis, then the\n"
+    "  voxel grows (4 mm, 5 mm, 1 cm, 2 cm) until it does, and a line says so; an explicit space is\n"
+    "  kept (a warning when it holds less than half).\n"
     "  Frames are pushed when the sensor moved 1 cm or 1 degree since the last push\n"
     "  (--push-every-frame: always), never while tracking is lost.\n";
 

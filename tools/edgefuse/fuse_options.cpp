@@ -19,7 +19,7 @@ bool board_fuse_settings(FuseSettings& settings, std::string& err) {
   settings.trunc_m = defaults.trunc_m;
   settings.max_weight = defaults.max_weight;
   settings.threads = defaults.threads;
-  settings.dim = board.volume_dim;
+  settings.dim = defaults.dim > 0 ? defaults.dim : board.volume_dim;
   return true;
 }
 
@@ -170,12 +170,18 @@ bool size_space_to_view(const char* command, const PinholeIntrinsics& intr, cons
                   voxel_advice(s, voxel_holding(view, s, centre_m, s.voxel_m)).c_str());
     return true;
   }
+  // The index holds more than the default space: first the board's voxel over the whole index, then
+  // coarser voxels over it (the voxel pool holds the surface, whatever the extent).
+  FuseSettings grown = s;
+  grown.dim = build_board().volume_dim;
   float chosen_m = 0.0f;
+  if (grown.dim > s.dim &&
+      share_inside(view.world_m, origin_for(grown, centre_m, s.voxel_m), grown.dim, s.voxel_m) >= kHeldShare)
+    chosen_m = s.voxel_m;
   for (float v_m : kVoxelLadder_m)
-    if (v_m > s.voxel_m && share_inside(view.world_m, origin_for(s, centre_m, v_m), s.dim, v_m) >= kHeldShare) {
+    if (chosen_m == 0.0f && v_m > s.voxel_m &&
+        share_inside(view.world_m, origin_for(grown, centre_m, v_m), grown.dim, v_m) >= kHeldShare)
       chosen_m = v_m;
-      break;
-    }
   if (chosen_m == 0.0f) {
     char keep[64];
     std::snprintf(keep, sizeof keep, ", or --voxel %g to fuse only the part inside", double(s.voxel_m));
@@ -190,10 +196,11 @@ bool size_space_to_view(const char* command, const PinholeIntrinsics& intr, cons
           " is below one voxel: pass --voxel and --trunc together";
     return false;
   }
+  s.dim = grown.dim;
   s.voxel_m = chosen_m;
   s.trunc_m = trunc_m;
   s.origin_m = volume_origin_for(centre_m, s.dim, s.voxel_m);
-  std::printf("%s: %s: using %s voxels (%.2f m), pass --voxel to choose\n", command, shortfall.c_str(),
+  std::printf("%s: %s: using %d^3 x %s voxels (%.2f m), pass --voxel to choose\n", command, shortfall.c_str(), s.dim,
               length_text(chosen_m).c_str(), double(float(s.dim) * chosen_m));
   return true;
 }

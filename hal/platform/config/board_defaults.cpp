@@ -6,6 +6,8 @@
 #include <sstream>
 
 #include "edgefuse/hal/platform/config/board_data_dir.hpp"
+#include "edgefuse/memory/arena.hpp"
+#include "edgefuse/tsdf/volume.hpp"
 #include "edgefuse/hal/platform/config/toml_guard.hpp"
 
 namespace edgefuse::hal {
@@ -22,6 +24,19 @@ bool read_number(const toml::table& t, const std::string& file, const char* key,
     return false;
   }
   out = T(*v);
+  return true;
+}
+
+// The default space must be one the board's static buffers hold: bricks of 8 voxels, at most the
+// index's capacity ([capacity] volume_dim).
+bool dim_fits(const std::string& board, const std::string& file, int dim, std::string& err) {
+  const BoardCapacities* caps = find_board(board.c_str());
+  if (dim == 0 || caps == nullptr) return true;
+  if (dim % kBrickSide != 0 || dim > caps->volume_dim) {
+    err = file + ": tsdf.dim must be a multiple of " + std::to_string(kBrickSide) + " up to capacity.volume_dim (" +
+          std::to_string(caps->volume_dim) + "), got " + std::to_string(dim);
+    return false;
+  }
   return true;
 }
 
@@ -49,7 +64,8 @@ bool read_board_defaults(const std::string& board, BoardDefaults& out, std::stri
     return false;
   }
   out.name = board;
-  return read_number(t, file, "voxel_m", 1e-4f, 1.0f, out.voxel_m, err) &&
+  return read_number(t, file, "dim", 8, 4096, out.dim, err) && dim_fits(board, file, out.dim, err) &&
+         read_number(t, file, "voxel_m", 1e-4f, 1.0f, out.voxel_m, err) &&
          read_number(t, file, "trunc_m", 1e-4f, 10.0f, out.trunc_m, err) &&
          read_number(t, file, "max_weight", 1, 255, out.max_weight, err) &&
          read_number(t, file, "threads", 1, 64, out.threads, err);

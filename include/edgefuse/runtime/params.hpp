@@ -41,6 +41,7 @@ enum ParamId : int {
   kReportRepeat,
   kCalibDir,
   kSensorsReplay,
+  kTsdfDim,
   kTsdfVoxelM,
   kTsdfTruncM,
   // edgefused's pipeline: frame source, models, filters, tracking

@@ -7,6 +7,7 @@ namespace edgefuse::hal {
 
 struct BoardDefaults {
   std::string name;
+  int dim = 0;  //!< voxels per axis of the space a run uses by default (0: the board's capacity)
   float voxel_m = 0.004f;
   float trunc_m = 0.016f;
   int max_weight = 255;
