@@ -54,6 +54,11 @@ os.makedirs(WORK, exist_ok=True)
 bad = subprocess.run([*EMU, EDGEFUSED, *SIM, "--set", "link.tcp_port=70000"], capture_output=True, text=True, cwd=WORK)
 check(bad.returncode == 1 and "link.tcp_port = 70000 is out of range [0, 65535]" in bad.stderr,
       "bad --set value refused: " + bad.stderr.strip())
+bad = subprocess.run([*EMU, EDGEFUSED, *SIM, "--set", "tsdf.dim=100", "--set", "link.tcp=false", "--set", "robot.text=false",
+                      "--set", "link.serial=", "--set", "console.serial="], capture_output=True, text=True, cwd=WORK,
+                     timeout=60 * SLOW)
+check(bad.returncode == 1 and "tsdf.dim = 100: the space must be a multiple of 8" in bad.stderr,
+      "a space the board cannot index refused: " + bad.stderr.strip())
 cfg = os.path.join(WORK, "bad.toml")
 with open(cfg, "w") as f:
     f.write("[localize]\nmin_score = 3\n")

@@ -118,12 +118,6 @@ bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) 
   }
   TsdfParams tp = TsdfParams::defaults_for(config.voxel_m, config.trunc_m);
   tp.max_weight = uint8_t(defaults.max_weight);
-  if (config.dim % kBrickSide != 0 || config.dim > board->volume_dim) {
-    err = "tsdf.dim = " + std::to_string(config.dim) + ": the space must be a multiple of " +
-          std::to_string(kBrickSide) + " voxels per axis up to board " + board->name + "'s capacity.volume_dim (" +
-          std::to_string(board->volume_dim) + ")";
-    return false;
-  }
   if (volume_.init(buffers_.voxels, config.dim, Vec3f::Zero(), tp) != Status::kOk) {
     err = "volume " + std::to_string(config.dim) + "^3 at " + std::to_string(config.voxel_m) + " m refused";
     return false;

@@ -217,7 +217,14 @@ bool load_parameters(const CommandLine& c, std::string& err) {
 }
 
 // Values whose combination is wrong (each alone passed its own check).
-bool check_combinations(std::string& err) {
+bool check_combinations(const std::string& board, std::string& err) {
+  const int dim = g_params.get_int(runtime::kTsdfDim);
+  const int dim_max = find_board(board.c_str())->volume_dim;  // load_parameters checked the name
+  if (dim % kBrickSide != 0 || dim > dim_max) {
+    err = "tsdf.dim = " + std::to_string(dim) + ": the space must be a multiple of " + std::to_string(kBrickSide) +
+          " voxels per axis up to board " + board + "'s capacity.volume_dim (" + std::to_string(dim_max) + ")";
+    return false;
+  }
   const std::string console_spec = g_params.get_text(runtime::kConsoleSerial);
   const std::string link_spec = g_params.get_text(runtime::kLinkSerial);
   // console.serial = "link" shares the link's port; naming the same device twice is a mistake.
@@ -435,7 +442,7 @@ int run_edgefused(int argc, char** argv, runtime::Pipeline* pipeline) {
   const int code = parse_command_line(argc, argv, c);
   if (code >= 0) return code;
   std::string err;
-  if (!load_parameters(c, err) || !check_combinations(err)) return fail(err);
+  if (!load_parameters(c, err) || !check_combinations(c.board, err)) return fail(err);
   std::printf("edgefused %s: board %s, config %s, space %lld^3, voxel %g m, truncation %g m\n", kVersion, c.board.c_str(),
               c.config.empty() ? "(defaults)" : c.config.c_str(), static_cast<long long>(g_params.get_int(runtime::kTsdfDim)),
               g_params.get_number(runtime::kTsdfVoxelM), g_params.get_number(runtime::kTsdfTruncM));
