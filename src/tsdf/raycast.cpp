@@ -307,7 +307,10 @@ class RayMarcher {
         want_vertex_(!maps.vertex.empty()), want_normal_(!maps.normal.empty()), clear_colour_(!maps.colour.empty()),
         want_colour_(!maps.colour.empty() && volume.has_colour()) {
     for (int axis = 0; axis < 3; ++axis)
-      for (int c = 0; c < volume.dim(); ++c) axis_entry_[axis][c] = axis_entry(axis, uint32_t(c));
+      for (int c = 0; c < volume.dim(); ++c) {
+        axis_entry_[axis][c] = axis_entry(axis, uint32_t(c));
+        axis_step_[axis][c] = axis_step(axis, uint32_t(c));
+      }
   }
 
   // Clears the vertex, normal and colour maps of rows [row_begin, row_end) (all-zero bytes are
@@ -395,51 +398,83 @@ class RayMarcher {
     return true;
   }
 
-  // The trilinear cell with base `cell`, addressed for the march: the pool indices of its 8
-  // corners (corner k: +x for bit 0, +y for bit 1, +z for bit 2), the grid brick of its base
-  // voxel, and whether its x-pairs are adjacent in memory. i[0] identifies the cell among the
-  // observed ones (a base in the empty brick, slot 0, makes the cell unobserved).
+  // The trilinear cell with base `cell`, addressed for the march: the pool index of its base
+  // voxel and the index offsets to its +x, +y, +z neighbours (inside the brick 1, 8, 64; across a
+  // brick face into the neighbour brick's slot), its grid brick, and the axes along which it
+  // reaches into the next brick (bit 0 x, 1 y, 2 z). While it crosses at most one face, every
+  // corner is the base plus a sum of the offsets (corners on the far side of the face keep their
+  // relative place in the neighbour brick); a cell crossing two or three faces (1 in 22 of them)
+  // has corners in up to 8 bricks and is addressed corner by corner. A base in the empty brick
+  // (slot 0) makes the cell unobserved, so `base` identifies the cell among the observed ones.
   struct CellAddress {
-    uint32_t i[8];
-    uint32_t brick;
-    bool x_adjacent;
-    uint32_t base() const { return i[0]; }
+    uint32_t base, dx, dy, dz, brick, local;
+    unsigned cross;
+    bool additive() const { return (cross & (cross - 1u)) == 0; }
   };
-  // The cell's address. Three table reads give the base voxel's grid brick and its offset in the
-  // brick (instead of ~30 instructions of shifts and masks: it is computed for every sample), one
-  // index read its pool slot. A cell inside one brick (7 of 8 along each axis) has its corners at
-  // fixed offsets; one reaching into the next brick along an axis reads that brick's slot.
-  // The cell must lie in the grid.
+  // The cell's address, without a branch (it is computed for every sample, and 1 sample in 3
+  // sits on a brick face along some axis: branches there mispredict). Three table reads give the
+  // base voxel's grid brick and its offset in the brick (instead of ~30 instructions of shifts and
+  // masks), three more each axis's step to the +1 neighbour: the brick step (0 inside the brick)
+  // and the in-brick step (+1 or, from local coordinate 7, -7 on that axis). The index then gives
+  // the slots of the base brick and of the brick each +1 neighbour lies in (the base brick's own
+  // slot again when it lies inside). The cell must lie in the grid.
   CellAddress address(const int cell[3]) const {
     const uint64_t e = axis_entry_[0][cell[0]] + axis_entry_[1][cell[1]] + axis_entry_[2][cell[2]];
+    const uint64_t sx = axis_step_[0][cell[0]], sy = axis_step_[1][cell[1]], sz = axis_step_[2][cell[2]];
     CellAddress a;
     a.brick = uint32_t(e >> 32);
-    const uint32_t local = uint32_t(e);
-    const uint32_t base = (slot_[a.brick] << 9) + local;
-    const unsigned cross = unsigned((cell[0] & 7) == 7) | unsigned((cell[1] & 7) == 7) << 1 |
-                           unsigned((cell[2] & 7) == 7) << 2;
-    a.x_adjacent = (cross & 1u) == 0;
-    if (cross == 0) {
-      for (int k = 0; k < 8; ++k) a.i[k] = base + uint32_t((k & 1) | (k & 2) << 2 | (k & 4) << 4);
-      return a;
-    }
-    a.i[0] = base;
-    const uint32_t brick_step[3] = {1u, nb_, nb2_};
-    for (int k = 1; k < 8; ++k) {
-      uint32_t brick = a.brick, off = local;
-      for (int axis = 0; axis < 3; ++axis) {
-        if (!((k >> axis) & 1)) continue;
-        const uint32_t unit = 1u << (3 * axis);
-        if ((cross >> axis) & 1u) {
-          brick += brick_step[axis];
-          off -= 7u * unit;  // local coordinate 7 -> 0 of the next brick
-        } else {
-          off += unit;
-        }
-      }
-      a.i[k] = (brick == a.brick ? base - local : slot_[brick] << 9) + off;
-    }
+    a.local = uint32_t(e);
+    const uint32_t slot_base = slot_[a.brick] << 9;
+    a.base = slot_base + a.local;
+    a.dx = (slot_[a.brick + uint32_t(sx >> 32)] << 9) - slot_base + uint32_t(sx);
+    a.dy = (slot_[a.brick + uint32_t(sy >> 32)] << 9) - slot_base + uint32_t(sy);
+    a.dz = (slot_[a.brick + uint32_t(sz >> 32)] << 9) - slot_base + uint32_t(sz);
+    a.cross = unsigned(sx >> 32 != 0) | unsigned(sy >> 32 != 0) << 1 | unsigned(sz >> 32 != 0) << 2;
     return a;
+  }
+  // The step entry of coordinate c on `axis` (see address()): the brick step to c + 1 (high 32
+  // bits) and the in-brick step (low 32 bits, modulo 2^32).
+  uint64_t axis_step(int axis, uint32_t c) const {
+    const uint32_t bricks = axis == 0 ? 1u : (axis == 1 ? nb_ : nb2_);
+    const uint32_t unit = 1u << (3 * axis);
+    return (c & 7u) == 7u ? uint64_t(bricks) << 32 | uint64_t(uint32_t(0u - 7u * unit)) : uint64_t(unit);
+  }
+  // The pool index of corner k of a cell crossing several faces (+x for bit 0, +y for bit 1, +z
+  // for bit 2): the corner's own brick from the index.
+  uint32_t corner_across(const CellAddress& a, unsigned k) const {
+    const uint32_t brick_step[3] = {1u, nb_, nb2_};
+    uint32_t brick = a.brick, off = a.local;
+    for (int axis = 0; axis < 3; ++axis) {
+      if (!((k >> axis) & 1u)) continue;
+      const uint32_t unit = 1u << (3 * axis);
+      if ((a.cross >> axis) & 1u) {
+        brick += brick_step[axis];
+        off -= 7u * unit;  // local coordinate 7 -> 0 of the next brick
+      } else {
+        off += unit;
+      }
+    }
+    return (slot_[brick] << 9) + off;
+  }
+  // The pool index of corner k of the cell.
+  uint32_t corner(const CellAddress& a, unsigned k) const {
+    if (!a.additive()) return corner_across(a, k);
+    return a.base + (k & 1u ? a.dx : 0u) + (k & 2u ? a.dy : 0u) + (k & 4u ? a.dz : 0u);
+  }
+  // The pool indices of the cell's 8 corners.
+  void corners(const CellAddress& a, uint32_t idx[8]) const {
+    if (a.additive()) {
+      idx[0] = a.base;
+      idx[1] = a.base + a.dx;
+      idx[2] = a.base + a.dy;
+      idx[3] = idx[2] + a.dx;
+      idx[4] = a.base + a.dz;
+      idx[5] = idx[4] + a.dx;
+      idx[6] = idx[4] + a.dy;
+      idx[7] = idx[6] + a.dx;
+      return;
+    }
+    for (unsigned k = 0; k < 8; ++k) idx[k] = corner_across(a, k);
   }
   // The pool index of voxel c - 1 along `axis` from voxel c (index idx); c[axis] >= 1.
   uint32_t step_down(uint32_t idx, const int c[3], int axis) const {
@@ -481,15 +516,17 @@ class RayMarcher {
   }
   // Reads the 8 corners of the cell at `a` into `out`.
   const CellCorners<Real>& load_corners(const CellAddress& a, CellCorners<Real>& out) const {
-    const uint32_t i0 = a.i[0], i1 = a.i[1], i2 = a.i[2], i3 = a.i[3];
-    const uint32_t i4 = a.i[4], i5 = a.i[5], i6 = a.i[6], i7 = a.i[7];
-    out.base = a.base();
+    uint32_t idx[8];
+    corners(a, idx);
+    const uint32_t i0 = idx[0], i1 = idx[1], i2 = idx[2], i3 = idx[3];
+    const uint32_t i4 = idx[4], i5 = idx[5], i6 = idx[6], i7 = idx[7];
+    out.base = a.base;
     if constexpr (std::is_same<Real, float>::value) {
       using namespace cell_lanes;
       // The 4 x-pairs (corner 2j, 2j + 1) as 32-bit lanes, low half the first (little endian:
       // x86-64, aarch64, armhf). Inside a brick the pair is adjacent in memory: one load.
       I4 pairs;
-      if (a.x_adjacent) {
+      if ((a.cross & 1u) == 0) {
         int32_t w0, w1, w2, w3;
         std::memcpy(&w0, tsdf_ + i0, 4);
         std::memcpy(&w1, tsdf_ + i2, 4);
@@ -554,7 +591,7 @@ class RayMarcher {
     if (!in_grid(cell)) return false;
     const CellAddress a = address(cell);
     CellCorners<Real> read;
-    const CellCorners<Real>* k = a.base() == known.base ? &known : &load_corners(a, read);
+    const CellCorners<Real>* k = a.base == known.base ? &known : &load_corners(a, read);
     if (!k->observed) return false;
     out = lerp_cell(*k, g[0] - real_from_int<Real>(cell[0]), g[1] - real_from_int<Real>(cell[1]),
                     g[2] - real_from_int<Real>(cell[2]));
@@ -630,7 +667,9 @@ class RayMarcher {
     const Real fx = g[0] - real_from_int<Real>(cell[0]);
     const Real fy = g[1] - real_from_int<Real>(cell[1]);
     const Real fz = g[2] - real_from_int<Real>(cell[2]);
-    const uint32_t ni = a.i[unsigned(!(fx < half)) | unsigned(!(fy < half)) << 1 | unsigned(!(fz < half)) << 2];
+    const uint32_t ni = a.additive() ? a.base + (fx < half ? 0u : a.dx) + (fy < half ? 0u : a.dy) + (fz < half ? 0u : a.dz)
+                                     : corner_across(a, unsigned(!(fx < half)) | unsigned(!(fy < half)) << 1 |
+                                                            unsigned(!(fz < half)) << 2);
     const int16_t nq = tsdf_[ni];
     if (nq == kTsdfUnobserved) {
       // An unobserved corner: no surface can be here. A surface seen from this side has its
@@ -709,8 +748,8 @@ class RayMarcher {
     const CellAddress centre = address(c);  // its corners 1, 2, 4 are c's +1 neighbours
     int16_t q[6];
     for (int a = 0; a < 3; ++a) {
-      q[2 * a] = tsdf_[step_down(centre.base(), c, a)];
-      q[2 * a + 1] = tsdf_[centre.i[1 << a]];
+      q[2 * a] = tsdf_[step_down(centre.base, c, a)];
+      q[2 * a + 1] = tsdf_[corner(centre, 1u << a)];
     }
     // Unobserved (-32768) or truncated (+-32767) neighbours: x + 32766 (mod 2^16) lands at
     // 65533 or above exactly for those three values. One branch for all six.
@@ -727,7 +766,8 @@ class RayMarcher {
     const int cell[3] = {floor_int(g[0]), floor_int(g[1]), floor_int(g[2])};
     if (!in_grid(cell)) return out;
     const CellAddress a = address(cell);
-    const uint32_t* idx = a.i;
+    uint32_t idx[8];
+    corners(a, idx);
     const float f[3] = {to_float(g[0] - real_from_int<Real>(cell[0])), to_float(g[1] - real_from_int<Real>(cell[1])),
                         to_float(g[2] - real_from_int<Real>(cell[2]))};
     return blend_corner_colours(colour_, colour_weight_, idx, f);
@@ -749,6 +789,7 @@ class RayMarcher {
   const Real margin_;
   const bool want_vertex_, want_normal_, clear_colour_, want_colour_;
   uint64_t axis_entry_[3][kRaycastDimMax];  // address() per coordinate (24 KiB of stack)
+  uint64_t axis_step_[3][kRaycastDimMax];   // address()'s +1 steps per coordinate (24 KiB of stack)
 };
 
 // Pixels are marched tile column by tile column (8 columns of the given rows at a time), so that

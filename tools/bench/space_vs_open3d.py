@@ -97,8 +97,11 @@ def edgefuse_runs(build, ds, frames, voxel, trunc, level, threads, out):
     res["dim"] = int(v.group(1))
     res["origin"] = [float(v.group(i)) for i in (2, 3, 4)]
     res["colour"] = "registered colour" in res["header"]
-    # Stored bytes per voxel: int16 distance + uint8 weight, + RGB8 + uint8 colour weight.
-    res["space_bytes"] = res["dim"] ** 3 * (3 + (4 if ", colour," in res["header"] else 0))
+    # The voxel pool's bricks in use (8^3 voxels of int16 distance + uint8 weight, + RGB8 + uint8
+    # colour weight) and the brick index over the cube (slot, flags, work list, block mask: 17 bytes).
+    res["bricks"] = int(grab(r"^space: (\d+) of \d+ bricks in use", res["header"], "space").group(1))
+    voxel_bytes = 3 + (4 if ", colour," in res["header"] else 0)
+    res["space_bytes"] = res["bricks"] * 512 * voxel_bytes + (res["dim"] // 8) ** 3 * 17
     res["cloud"] = str(out / f"edgefuse_{ds['key']}_{threads[0]}.ply")
     return res
 
@@ -321,7 +324,8 @@ def report(r, threads, block):
               f"({vw2 / ef['raycast_wall2_ms']:.2f}x)")
     print(f"clouds edgefuse <-> VoxelBlockGrid (median point-to-plane where both see): {r['dist_mm'][0]:.2f} / "
           f"{r['dist_mm'][1]:.2f} mm (half a voxel: {r['voxel'] * 500:g} mm)")
-    print(f"space memory: edgefuse {ef['space_bytes'] / 2**20:.1f} MiB ({ef['dim']}^3 cube)  VoxelBlockGrid "
+    print(f"space memory: edgefuse {ef['space_bytes'] / 2**20:.1f} MiB ({ef['bricks']} bricks of 8^3 in use, "
+          f"{ef['dim']}^3 index)  VoxelBlockGrid "
           f"{o3[t1]['space_bytes'] / 2**20:.1f} MiB in use ({o3[t1]['active_blocks']} blocks)")
     fb = statistics.median(o3[t1].get("frame_blocks") or [0])
     print(f"VoxelBlockGrid integrates {fb:.0f} blocks per frame (median): {fb * block ** 3 / 1e6:.2f} M voxels")
