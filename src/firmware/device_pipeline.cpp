@@ -118,8 +118,9 @@ bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) 
   }
   TsdfParams tp = TsdfParams::defaults_for(config.voxel_m, config.trunc_m);
   tp.max_weight = uint8_t(defaults.max_weight);
-  if (volume_.init(buffers_.voxels, config.dim, Vec3f::Zero(), tp) != Status::kOk) {
-    err = "volume " + std::to_string(config.dim) + "^3 at " + std::to_string(config.voxel_m) + " m refused";
+  const int dim = config.dim > 0 ? config.dim : (defaults.dim > 0 ? defaults.dim : board->volume_dim);
+  if (volume_.init(buffers_.voxels, dim, Vec3f::Zero(), tp) != Status::kOk) {
+    err = "volume " + std::to_string(dim) + "^3 at " + std::to_string(config.voxel_m) + " m refused";
     return false;
   }
   threads_ = defaults.threads;

@@ -90,7 +90,7 @@ struct DevicePipelineConfig {
   std::string board;        //!< board folder name (hal.toml, board.toml)
   std::string replay;       //!< rig set / sequence folder every camera replays ("" : hal.toml's backends)
   std::string models;       //!< a PLY model or a folder of them ("" : a replayed rig set's models)
-  int dim = 256;            //!< TSDF voxels per axis (a multiple of 8 up to the board's capacity)
+  int dim = 0;              //!< TSDF voxels per axis, up to the board's capacity (0: the board's [tsdf] dim)
   float voxel_m = 0.002f;   //!< TSDF voxel edge
   float trunc_m = 0.008f;   //!< TSDF truncation
   bool bilateral = false;   //!< bilateral filter on
