@@ -118,7 +118,7 @@ bool DevicePipeline::init(const DevicePipelineConfig& config, std::string& err) 
   }
   TsdfParams tp = TsdfParams::defaults_for(config.voxel_m, config.trunc_m);
   tp.max_weight = uint8_t(defaults.max_weight);
-  const int dim = config.dim > 0 ? config.dim : (defaults.dim > 0 ? defaults.dim : board->volume_dim);
+  const int dim = config.dim > 0 ? config.dim : defaults.dim;
   if (volume_.init(buffers_.voxels, dim, Vec3f::Zero(), tp) != Status::kOk) {
     err = "volume " + std::to_string(dim) + "^3 at " + std::to_string(config.voxel_m) + " m refused";
     return false;

@@ -201,7 +201,7 @@ bool load_parameters(const CommandLine& c, std::string& err) {
   hal::BoardDefaults bd;
   if (!hal::read_board_defaults(c.board, bd, err)) return false;
   char text[32], e[200];
-  std::snprintf(text, sizeof(text), "%d", bd.dim > 0 ? bd.dim : find_board(c.board.c_str())->volume_dim);
+  std::snprintf(text, sizeof(text), "%d", bd.dim);
   bool ok = g_params.set(runtime::kTsdfDim, text, e, sizeof(e));
   std::snprintf(text, sizeof(text), "%.9g", double(bd.voxel_m));
   ok = ok && g_params.set(runtime::kTsdfVoxelM, text, e, sizeof(e));
@@ -218,13 +218,7 @@ bool load_parameters(const CommandLine& c, std::string& err) {
 
 // Values whose combination is wrong (each alone passed its own check).
 bool check_combinations(const std::string& board, std::string& err) {
-  const int dim = g_params.get_int(runtime::kTsdfDim);
-  const int dim_max = find_board(board.c_str())->volume_dim;  // load_parameters checked the name
-  if (dim % kBrickSide != 0 || dim > dim_max) {
-    err = "tsdf.dim = " + std::to_string(dim) + ": the space must be a multiple of " + std::to_string(kBrickSide) +
-          " voxels per axis up to board " + board + "'s capacity.volume_dim (" + std::to_string(dim_max) + ")";
-    return false;
-  }
+  if (!hal::check_space_dim(board, g_params.get_int(runtime::kTsdfDim), "tsdf.dim", err)) return false;
   const std::string console_spec = g_params.get_text(runtime::kConsoleSerial);
   const std::string link_spec = g_params.get_text(runtime::kLinkSerial);
   // console.serial = "link" shares the link's port; naming the same device twice is a mistake.

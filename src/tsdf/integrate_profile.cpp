@@ -171,7 +171,7 @@ inline bool integrate_profile_brick(TsdfVolume& volume, const ProfileKernel<Real
         int32_t q = d >= k.trunc ? kTsdfMax : round_int(d * k.inv_trunc * k.q_scale);
         q = q > kTsdfMax ? kTsdfMax : (q < -kTsdfMax ? -kTsdfMax : q);
         // The brick gets its pool slot with its first sample; a full pool leaves it out (counted).
-        if (!volume.brick_stored(brick) && !volume.store_brick(brick)) return false;
+        if (!volume.store_brick(brick)) return false;
         const std::size_t idx = volume.index(x, y, z);
         const int32_t old_w = weight[idx];
         if (old_w == k.max_weight && tsdf[idx] == kTsdfMax && q == kTsdfMax) continue;

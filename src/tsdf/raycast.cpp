@@ -667,9 +667,7 @@ class RayMarcher {
     const Real fx = g[0] - real_from_int<Real>(cell[0]);
     const Real fy = g[1] - real_from_int<Real>(cell[1]);
     const Real fz = g[2] - real_from_int<Real>(cell[2]);
-    const uint32_t ni = a.additive() ? a.base + (fx < half ? 0u : a.dx) + (fy < half ? 0u : a.dy) + (fz < half ? 0u : a.dz)
-                                     : corner_across(a, unsigned(!(fx < half)) | unsigned(!(fy < half)) << 1 |
-                                                            unsigned(!(fz < half)) << 2);
+    const uint32_t ni = corner(a, unsigned(!(fx < half)) | unsigned(!(fy < half)) << 1 | unsigned(!(fz < half)) << 2);
     const int16_t nq = tsdf_[ni];
     if (nq == kTsdfUnobserved) {
       // An unobserved corner: no surface can be here. A surface seen from this side has its

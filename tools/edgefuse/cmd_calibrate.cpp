@@ -67,7 +67,7 @@ bool parse_options(int argc, char** argv, CalibrateOptions& o, Failure& f) {
   settings.voxel_m = defaults.voxel_m;
   settings.trunc_m = defaults.trunc_m;
   settings.max_weight = defaults.max_weight;
-  settings.dim = o.default_dim = defaults.dim > 0 ? defaults.dim : board.volume_dim;
+  settings.dim = o.default_dim = defaults.dim;
   if (!args.get_float("voxel", 1e-4f, 1.0f, settings.voxel_m, err) ||
       !args.get_float("trunc", 1e-4f, 10.0f, settings.trunc_m, err) ||
       !args.get_int("volume", 8, board.volume_dim, settings.dim, err) || !args.get_int("frames", 1, 100000, o.frames, err) ||

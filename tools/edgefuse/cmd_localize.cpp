@@ -205,7 +205,7 @@ bool parse_options(int argc, char** argv, LocalizeOptions& o, Failure& f) {
   o.fuse.trunc_m = defaults.trunc_m;
   o.fuse.max_weight = defaults.max_weight;
   o.fuse.threads = defaults.threads;
-  o.fuse.dim = defaults.dim > 0 ? defaults.dim : board.volume_dim;
+  o.fuse.dim = defaults.dim;
   if (o.args.has("seg-keep-small")) o.params.segment_merge_small = false;
   if (!parse_numbers(o, board, err)) return fail(f, err, 2);
   if (o.args.has("voxel")) o.fuse.trunc_m = 4.0f * o.fuse.voxel_m;

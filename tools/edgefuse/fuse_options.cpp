@@ -19,7 +19,7 @@ bool board_fuse_settings(FuseSettings& settings, std::string& err) {
   settings.trunc_m = defaults.trunc_m;
   settings.max_weight = defaults.max_weight;
   settings.threads = defaults.threads;
-  settings.dim = defaults.dim > 0 ? defaults.dim : board.volume_dim;
+  settings.dim = defaults.dim;
   return true;
 }
 

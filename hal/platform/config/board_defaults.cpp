@@ -27,20 +27,26 @@ bool read_number(const toml::table& t, const std::string& file, const char* key,
   return true;
 }
 
-// The default space must be one the board's static buffers hold: bricks of 8 voxels, at most the
-// index's capacity ([capacity] volume_dim).
-bool dim_fits(const std::string& board, const std::string& file, int dim, std::string& err) {
+// [tsdf] dim, when given, must be a space the board's index holds; without it the default space
+// is the whole index.
+bool resolve_dim(const std::string& board, const std::string& file, int& dim, std::string& err) {
   const BoardCapacities* caps = find_board(board.c_str());
-  if (dim == 0 || caps == nullptr) return true;
-  if (dim % kBrickSide != 0 || dim > caps->volume_dim) {
-    err = file + ": tsdf.dim must be a multiple of " + std::to_string(kBrickSide) + " up to capacity.volume_dim (" +
-          std::to_string(caps->volume_dim) + "), got " + std::to_string(dim);
-    return false;
+  if (dim == 0) {
+    dim = caps != nullptr ? caps->volume_dim : 0;
+    return true;
   }
-  return true;
+  return check_space_dim(board, dim, file + ": tsdf.dim", err);
 }
 
 }  // namespace
+
+bool check_space_dim(const std::string& board, int dim, const std::string& what, std::string& err) {
+  const BoardCapacities* caps = find_board(board.c_str());
+  if (caps == nullptr || (dim % kBrickSide == 0 && dim <= caps->volume_dim)) return true;
+  err = what + " = " + std::to_string(dim) + ": the space must be a multiple of " + std::to_string(kBrickSide) +
+        " voxels per axis up to board " + board + "'s capacity.volume_dim (" + std::to_string(caps->volume_dim) + ")";
+  return false;
+}
 
 bool read_board_defaults(const std::string& board, BoardDefaults& out, std::string& err) {
   std::string file;
@@ -64,7 +70,7 @@ bool read_board_defaults(const std::string& board, BoardDefaults& out, std::stri
     return false;
   }
   out.name = board;
-  return read_number(t, file, "dim", 8, 4096, out.dim, err) && dim_fits(board, file, out.dim, err) &&
+  return read_number(t, file, "dim", 8, 4096, out.dim, err) && resolve_dim(board, file, out.dim, err) &&
          read_number(t, file, "voxel_m", 1e-4f, 1.0f, out.voxel_m, err) &&
          read_number(t, file, "trunc_m", 1e-4f, 10.0f, out.trunc_m, err) &&
          read_number(t, file, "max_weight", 1, 255, out.max_weight, err) &&

@@ -68,13 +68,6 @@ struct VoxelStorage {
   uint64_t* block_mask = nullptr;
   int capacity_dim = 0;               //!< voxels per axis the index covers
   uint32_t pool_bricks = 0;           //!< slots in the voxel pool, slot 0 (the empty brick) included
-
-  //! Storage whose pool holds every brick of a capacity_dim^3 cube (tests and tools that need no
-  //! saving): pool_bricks = (capacity_dim/8)^3 + 1.
-  static uint32_t full_pool_for(int capacity_dim) {
-    const uint32_t nb = uint32_t(capacity_dim / 8);
-    return nb * nb * nb + 1u;
-  }
 };
 
 //! Default free margin (TsdfParams::free_margin_m): about the radius of a part a localiser
