@@ -36,6 +36,7 @@ ScenePoint g_scene[kScenePoints];
 uint64_t g_scratch[2 * kScenePoints];
 uint32_t g_grid_index[kScenePoints], g_grid_buckets[kGridBuckets + 1], g_sample[kScenePoints], g_queue[kScenePoints];
 int32_t g_labels[kScenePoints];
+uint64_t g_grid_near[kGridBuckets / 64];
 Vec3f g_grid_points[kScenePoints];
 uint16_t g_votes[kVoteAccumulators * kPpfPoints * kPpfAngleBins];
 PoseCandidate g_candidates[kHypotheses];
@@ -52,6 +53,7 @@ LocalizeBuffers buffers() {
   b.scratch = g_scratch;
   b.grid_index = g_grid_index;
   b.grid_buckets = g_grid_buckets;
+  b.grid_near = g_grid_near;
   b.grid_points = g_grid_points;
   b.sample = g_sample;
   b.labels = g_labels;

@@ -305,27 +305,36 @@ bool Localizer::try_flipped_twins(int m, const LocalizeParams& params, Localized
   // is judged: a feature off the axis puts the box centre beside the axis of the body (the can:
   // 8 mm), so the bare half turn lies 16 mm beside the surface it should explain. Costs three
   // more ICP runs per accepted hypothesis. A twin must pass the same thresholds as any hypothesis.
-  const ModelInfo& info = b_.models[m];
+  // The three twins are independent: refined and verified as one parallel batch, then judged in
+  // axis order (the same outcome on any thread count).
+  TwinBatch batch{this, m, &params, h.T_world_object, {}, {}};
+  if (parallel_.run) parallel_.run(parallel_.runner, 3, &Localizer::twin_job, &batch);
+  else
+    for (std::size_t axis = 0; axis < 3; ++axis) twin_job(&batch, axis);
   const auto quality = [](const LocalizedObject& o) { return float(o.support) * o.score; };
-  const LocalizedObject first = h;
   bool replaced = false;
   for (int axis = 0; axis < 3; ++axis) {
-    // The half turn about object axis `axis` through centre c: x -> F (x - c) + c.
-    Mat3f F = -Mat3f::Identity();
-    F(axis, axis) = 1.0f;
-    Pose flip;
-    flip.R = F;
-    flip.t = info.centre_m - F * info.centre_m;
-    Pose T = first.T_world_object * flip;
-    LocalizedObject twin;
-    if (!refine(m, T, params)) continue;
-    verify(m, T, params, twin, -1, nullptr);
-    if (passes_thresholds(twin, params) && quality(twin) > quality(h)) {
+    const LocalizedObject& twin = batch.twin[axis];
+    if (batch.refined[axis] && passes_thresholds(twin, params) && quality(twin) > quality(h)) {
       h = twin;
       replaced = true;
     }
   }
   return replaced;
+}
+
+void Localizer::twin_job(void* context, std::size_t axis) {
+  TwinBatch& b = *static_cast<TwinBatch*>(context);
+  const ModelInfo& info = b.me->b_.models[b.m];
+  // The half turn about object axis `axis` through centre c: x -> F (x - c) + c.
+  Mat3f F = -Mat3f::Identity();
+  F(int(axis), int(axis)) = 1.0f;
+  Pose flip;
+  flip.R = F;
+  flip.t = info.centre_m - F * info.centre_m;
+  Pose T = b.first * flip;
+  b.refined[axis] = b.me->refine(b.m, T, *b.params);
+  if (b.refined[axis]) b.me->verify(b.m, T, *b.params, b.twin[axis], -1, nullptr);
 }
 
 bool Localizer::passes_thresholds(const LocalizedObject& h, const LocalizeParams& params) {

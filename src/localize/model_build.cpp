@@ -11,7 +11,7 @@ namespace edgefuse {
 
 Status Localizer::init(const LocalizeBuffers& buffers) {
   if (!buffers.models || !buffers.model_points || !buffers.ppf_points || !buffers.ppf_entries ||
-      !buffers.ppf_buckets || !buffers.scene || !buffers.scratch || !buffers.grid_index || !buffers.grid_buckets ||
+      !buffers.ppf_buckets || !buffers.scene || !buffers.scratch || !buffers.grid_index || !buffers.grid_buckets || !buffers.grid_near ||
       !buffers.grid_points || !buffers.sample || !buffers.labels || !buffers.queue || !buffers.votes ||
       !buffers.candidates || !buffers.verified ||
       !buffers.results || buffers.models_max <= 0 || buffers.ppf_points_max < 8 ||

@@ -48,6 +48,33 @@ inline float cell_gap2(float f, int d, float cell_m) {
   return gap_m > 0 ? gap_m * gap_m : 0.0f;
 }
 
+//! cell_gap2 per axis for the offsets a ring search has reached, computed once per ring instead of
+//! once per cell visited (the search reads each up to (2 ring + 1)^2 times).
+class RingGaps {
+ public:
+  //! \param cp the query's cell and position in it  \param cell_m cell edge
+  RingGaps(const CellPos& cp, float cell_m) : cp_(cp), cell_m_(cell_m) {}
+  //! Computes the gaps of offsets -ring and +ring on every axis (call for ring 0, 1, ... in turn).
+  //! \param ring Chebyshev distance in cells
+  void add_ring(int ring) {
+    if (ring > kCached) return;  // read through at() from the formula
+    for (int a = 0; a < 3; ++a) {
+      g2_[a][kCached - ring] = cell_gap2(cp_.f[a], -ring, cell_m_);
+      g2_[a][kCached + ring] = cell_gap2(cp_.f[a], ring, cell_m_);
+    }
+  }
+  //! \param axis 0..2  \param d cell offset within a ring added so far  \return cell_gap2 of it
+  float at(int axis, int d) const {
+    return (d <= kCached && d >= -kCached) ? g2_[axis][kCached + d] : cell_gap2(cp_.f[axis], d, cell_m_);
+  }
+
+ private:
+  static constexpr int kCached = 15;  // rings beyond (radius > 15 cells) are rare: computed per read
+  CellPos cp_;
+  float cell_m_;
+  float g2_[3][2 * kCached + 1];
+};
+
 //! Calls f(j, position of j) for every scene point j hashed into the cells within k cells (per
 //! axis) of p's cell; candidates only (hash collisions included): the caller checks the distance.
 //! \param b the localiser's buffers  \param grid_inv 1 / cell edge  \param k cells each side

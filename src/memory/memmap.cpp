@@ -50,6 +50,7 @@ Status carve_memory(const BoardCapacities& c, uint8_t* arena, uint64_t arena_byt
   l.scratch = static_cast<uint64_t*>(at(Region::kLocScratch));
   l.grid_index = static_cast<uint32_t*>(at(Region::kLocGridIndex));
   l.grid_buckets = static_cast<uint32_t*>(at(Region::kLocGridBuckets));
+  l.grid_near = static_cast<uint64_t*>(at(Region::kLocGridNear));
   l.grid_points = static_cast<Vec3f*>(at(Region::kLocGridPoints));
   l.sample = static_cast<uint32_t*>(at(Region::kLocSample));
   l.labels = static_cast<int32_t*>(at(Region::kLocLabels));

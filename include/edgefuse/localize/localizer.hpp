@@ -36,6 +36,9 @@ struct LocalizeBuffers {
   uint64_t* scratch = nullptr;            //!< 2 * scene_points_max (sort keys; model sampling)
   uint32_t* grid_index = nullptr;         //!< scene_points_max
   uint32_t* grid_buckets = nullptr;       //!< kGridBuckets + 1
+  //! kGridBuckets bits: bucket h's bit is set when a cell hashed to h has a scene point in it or in
+  //! one of its 26 neighbours, so a clear bit ends a one-ring nearest query without its 27 lookups
+  uint64_t* grid_near = nullptr;
   //! scene_points_max: the scene positions in grid_index order, so that a cell's candidates are
   //! read from contiguous memory (grid_points[e] == scene[grid_index[e]].p)
   Vec3f* grid_points = nullptr;
@@ -225,6 +228,8 @@ class Localizer {
                     float grid_cell_m);
   //! Nearest scene point within radius (index or -1).
   int32_t nearest(const Vec3f& q, float radius_m, float& dist2) const;
+  //! Sets grid_near's bits from the grid (build_grid's last step).
+  void mark_near_cells();
   //! Labels every unlabelled scene point within radius of q (claims of an accepted hypothesis).
   void for_each_within(const Vec3f& q, float radius_m, int32_t label) const;
   //! Claims the scene points on the visible surface of model m at T.
@@ -271,6 +276,17 @@ class Localizer {
   // Replaces verified hypothesis h of model m by a half-turned twin of it that explains the scene
   // better (nearly symmetric shapes), if one does; true when it did.
   bool try_flipped_twins(int m, const LocalizeParams& params, LocalizedObject& h) const;
+  //! The three half-turn twins of one hypothesis, refined and verified by twin_job.
+  struct TwinBatch {
+    const Localizer* me;
+    int m;
+    const LocalizeParams* params;
+    Pose first;                  //!< the hypothesis the twins are turned from
+    bool refined[3];             //!< per axis: refine() converged
+    LocalizedObject twin[3];     //!< per axis: the verified twin (when refined)
+  };
+  //! \param context a TwinBatch  \param axis object axis of the half turn (0..2)
+  static void twin_job(void* context, std::size_t axis);
   // True when a verified hypothesis is good enough to keep (score, support, free space).
   static bool passes_thresholds(const LocalizedObject& h, const LocalizeParams& params);
   bool plausible(int m, const Pose& T, const LocalizeParams& params) const;

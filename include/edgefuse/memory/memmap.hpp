@@ -53,6 +53,7 @@ enum class Region : int {
   kLocScratch,      //!< sort keys (subsampling)
   kLocGridIndex,    //!< scene grid: point indices by cell
   kLocGridBuckets,  //!< scene grid: bucket offsets
+  kLocGridNear,     //!< scene grid: buckets with a scene point within one cell
   kLocGridPoints,   //!< scene grid: point positions by cell
   kLocSample,       //!< subsampled scene indices
   kLocLabels,       //!< per scene point: claim / segment label
@@ -132,6 +133,7 @@ constexpr MemoryMap make_memory_map(const BoardCapacities& c) {
   set(Region::kLocScratch, "loc sort keys", uint64_t(c.scene_points_max) * 2 * sizeof(uint64_t));
   set(Region::kLocGridIndex, "loc grid index", uint64_t(c.scene_points_max) * sizeof(uint32_t));
   set(Region::kLocGridBuckets, "loc grid buckets", uint64_t(kGridBuckets + 1) * sizeof(uint32_t));
+  set(Region::kLocGridNear, "loc grid near bits", uint64_t(kGridBuckets / 64) * sizeof(uint64_t));
   set(Region::kLocGridPoints, "loc grid points", uint64_t(c.scene_points_max) * sizeof(Vec3f));
   set(Region::kLocSample, "loc scene sample", uint64_t(c.scene_points_max) * sizeof(uint32_t));
   set(Region::kLocLabels, "loc labels", uint64_t(c.scene_points_max) * sizeof(int32_t));
