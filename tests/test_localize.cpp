@@ -15,6 +15,7 @@
 #include "scenes.hpp"
 #include "test_support.hpp"
 #include "localize_fixture.hpp"
+#include "../src/localize/scene_grid.hpp"  // the nearest-neighbour search is read directly (private to src/)
 
 using namespace edgefuse;
 using namespace edgefuse_test;
@@ -121,6 +122,62 @@ TEST(Localize, CorruptModelIsRejectedAtStartUp) {
 // A cloud file with garbage coordinates (finite, far beyond any cell): those points are skipped
 // like non-finite ones, and the rest is localised as without them (the int32 cell index must not
 // overflow: UBSan checks it).
+TEST(Localize, GridNearestEqualsBruteForceAtEveryRadius) {
+  // Surface-like points (a plane and a sphere cap, ~1 mm apart, as a fused surface) and queries on,
+  // near and far from them, radii from half a cell to 9 cells: the ring search (k <= 1, with the
+  // empty-neighbourhood bit) and the 3x3x3 block search (k >= 2) give the brute-force answer, the
+  // lower index on a tie.
+  Localizer loc;
+  CHECK(loc.init(buffers()) == Status::kOk);
+  std::vector<ScenePoint> pts;
+  for (int i = 0; i < 60; ++i)
+    for (int j = 0; j < 60; ++j)
+      pts.push_back(ScenePoint{Vec3f(-0.03f + 0.001f * float(i), -0.03f + 0.001f * float(j), 0.5f), Vec3f(0, 0, -1),
+                               uint32_t(pts.size()), {}});
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) {
+      const float a = 0.03f * float(i), b = 0.157f * float(j);
+      const Vec3f n(std::sin(a) * std::cos(b), std::sin(a) * std::sin(b), -std::cos(a));
+      pts.push_back(ScenePoint{Vec3f(0.05f, 0.0f, 0.47f) + 0.02f * n, n, uint32_t(pts.size()), {}});
+    }
+  const float cell = 0.0035f;
+  CHECK(loc.set_scene_points(pts.data(), pts.size(), SceneContext{}, nullptr, cell) == Status::kOk);
+  const LocalizeBuffers b = buffers();
+  uint32_t state = 12345u;
+  const auto uniform = [&state](float lo, float hi) {
+    state = state * 1664525u + 1013904223u;
+    return lo + (hi - lo) * float(state >> 8) / 16777216.0f;
+  };
+  int found = 0, empty = 0;
+  for (int t = 0; t < 4000; ++t) {
+    const Vec3f q(uniform(-0.04f, 0.08f), uniform(-0.04f, 0.03f), uniform(0.44f, 0.52f));
+    const float r = cell * uniform(0.5f, 9.0f);
+    int32_t want = -1;
+    float want_d2 = r * r;
+    for (std::size_t i = 0; i < loc.scene_count(); ++i) {
+      const float d2 = (loc.scene()[i].p - q).squaredNorm();
+      if (d2 < want_d2) {
+        want_d2 = d2;
+        want = int32_t(i);
+      }
+    }
+    const int k = int(std::ceil(r / cell));
+    NearestSearch blocks(b, q, cell_pos(q, 1.0f / cell), cell, r * r), rings(b, q, cell_pos(q, 1.0f / cell), cell, r * r);
+    if (k <= 1) {
+      if (blocks.block_may_hold_points(0, 0, 0)) blocks.by_rings(k);
+    } else {
+      blocks.by_blocks(k);
+    }
+    rings.by_rings(k);
+    for (const NearestSearch* s : {&blocks, &rings}) {
+      const int32_t got = s->best_e == NearestSearch::kNone ? -1 : int32_t(b.grid_index[s->best_e]);
+      LONGS_EQUAL(want, got);
+    }
+    (want >= 0 ? found : empty)++;
+  }
+  CHECK(found > 1000 && empty > 1000);  // both outcomes exercised
+}
+
 TEST(Localize, SceneSkipsPointsBeyondTheWorkspace) {
   Localizer loc;
   CHECK(loc.init(buffers()) == Status::kOk);

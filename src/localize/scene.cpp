@@ -90,60 +90,16 @@ void Localizer::mark_near_cells() {
 int32_t Localizer::nearest(const Vec3f& q, float radius_m, float& dist2) const {
   const CellPos cp = cell_pos(q, grid_inv_);
   const int k = int(std::ceil(radius_m * grid_inv_));
-  float best = radius_m * radius_m;
-  // The best candidate's slot in grid order: the positions are read from grid_points (contiguous
-  // per cell) and the scene index only to break a tie and for the answer.
-  constexpr uint32_t kNone = ~0u;
-  uint32_t best_e = kNone;
-  // A search within one ring of q's cell finds nothing when no cell there holds a point (the bit
-  // of q's bucket is clear): ~40 % of the queries of the localiser's ICP and verification.
+  NearestSearch search(b_, q, cp, grid_cell_m_, radius_m * radius_m);
   if (k <= 1) {
-    const uint32_t h = grid_hash(cp.c[0], cp.c[1], cp.c[2]);
-    if (((b_.grid_near[h >> 6] >> (h & 63)) & 1u) == 0) {
-      dist2 = best;
-      return -1;
-    }
+    // A search within one ring of q's cell finds nothing when no cell there holds a point (the bit
+    // of q's bucket is clear): ~40 % of the queries of the localiser's ICP and verification.
+    if (search.block_may_hold_points(0, 0, 0)) search.by_rings(k);
+  } else {
+    search.by_blocks(k);
   }
-  RingGaps gaps(cp, grid_cell_m_);
-  const auto scan_cell = [&](int dx, int dy, int dz, float gyz2) {
-    if (gyz2 + gaps.at(0, dx) > best) return;
-    const uint32_t h = grid_hash(cp.c[0] + dx, cp.c[1] + dy, cp.c[2] + dz);
-    const uint32_t e1 = b_.grid_buckets[h + 1];
-    for (uint32_t e = b_.grid_buckets[h]; e < e1; ++e) {
-      const float d2 = (b_.grid_points[e] - q).squaredNorm();
-      // Equal distance: the lower scene index wins, whatever order the cells come in.
-      if (d2 < best || (d2 == best && best_e != kNone && b_.grid_index[e] < b_.grid_index[best_e])) {
-        best = d2;
-        best_e = e;
-      }
-    }
-  };
-  // Rings of cells by Chebyshev distance; a point in ring R+1 is at least R cells away, so the
-  // search stops as soon as the best distance is within that. Within the rings, a cell whose box
-  // is farther than the best distance so far is not read (its bucket lookup is the cost: most of
-  // the 26 neighbours of a query near the surface are).
-  for (int ring = 0; ring <= k; ++ring) {
-    gaps.add_ring(ring);
-    for (int dz = -ring; dz <= ring; ++dz) {
-      const float gz2 = gaps.at(2, dz);
-      if (gz2 > best) continue;
-      const bool z_face = dz == -ring || dz == ring;
-      for (int dy = -ring; dy <= ring; ++dy) {
-        const float gyz2 = gz2 + gaps.at(1, dy);
-        if (gyz2 > best) continue;
-        if (z_face || dy == -ring || dy == ring) {
-          for (int dx = -ring; dx <= ring; ++dx) scan_cell(dx, dy, dz, gyz2);
-        } else {  // inside the ring's cube: only its two x faces belong to the ring
-          scan_cell(-ring, dy, dz, gyz2);
-          scan_cell(ring, dy, dz, gyz2);
-        }
-      }
-    }
-    const float reach = float(ring) * grid_cell_m_;
-    if (best_e != kNone && best <= reach * reach) break;
-  }
-  dist2 = best;
-  return best_e == kNone ? -1 : int32_t(b_.grid_index[best_e]);
+  dist2 = search.best_d2;
+  return search.best_e == NearestSearch::kNone ? -1 : int32_t(b_.grid_index[search.best_e]);
 }
 
 void Localizer::for_each_within(const Vec3f& q, float radius_m, int32_t label) const {

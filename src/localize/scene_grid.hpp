@@ -75,6 +75,119 @@ class RingGaps {
   float g2_[3][2 * kCached + 1];
 };
 
+//! One nearest-neighbour query on the grid (Localizer::nearest): the nearest scene point to q within
+//! sqrt(best_d2), ties to the lower scene index, among the cells within k cells of q's cell.
+struct NearestSearch {
+  static constexpr uint32_t kNone = ~0u;
+  const LocalizeBuffers& b;
+  Vec3f q;
+  CellPos cp;
+  float cell_m;
+  float best_d2;            //!< the radius squared, then the best squared distance found
+  uint32_t best_e = kNone;  //!< the best candidate's slot in grid order (kNone: none yet)
+  RingGaps gaps;
+
+  //! \param buffers the grid  \param query the point  \param pos its cell  \param cell grid cell edge
+  //! \param radius2 the search radius squared
+  NearestSearch(const LocalizeBuffers& buffers, const Vec3f& query, const CellPos& pos, float cell, float radius2)
+      : b(buffers), q(query), cp(pos), cell_m(cell), best_d2(radius2), gaps(pos, cell) {}
+
+  //! \return false when no cell within one cell of q's cell + (dx, dy, dz) holds a point (the
+  //! grid_near bit of that cell's bucket is clear; a set bit may be a hash collision)
+  bool block_may_hold_points(int dx, int dy, int dz) const {
+    const uint32_t h = grid_hash(cp.c[0] + dx, cp.c[1] + dy, cp.c[2] + dz);
+    return ((b.grid_near[h >> 6] >> (h & 63)) & 1u) != 0;
+  }
+
+  //! Reads the points of the cell at offset (dx, dy, dz) unless its box is beyond the best so far.
+  //! \param gyz2 the cell's squared gap along y and z
+  void scan_cell(int dx, int dy, int dz, float gyz2) {
+    if (gyz2 + gaps.at(0, dx) > best_d2) return;
+    const uint32_t h = grid_hash(cp.c[0] + dx, cp.c[1] + dy, cp.c[2] + dz);
+    const uint32_t e1 = b.grid_buckets[h + 1];
+    for (uint32_t e = b.grid_buckets[h]; e < e1; ++e) {
+      const float d2 = (b.grid_points[e] - q).squaredNorm();
+      // Equal distance: the lower scene index wins, whatever order the cells come in.
+      if (d2 < best_d2 || (d2 == best_d2 && best_e != kNone && b.grid_index[e] < b.grid_index[best_e])) {
+        best_d2 = d2;
+        best_e = e;
+      }
+    }
+  }
+
+  //! Rings of cells by Chebyshev distance up to k; a point in ring R+1 is at least R cells away, so
+  //! the search stops as soon as the best distance is within that. Within the rings, a cell whose
+  //! box is farther than the best distance so far is not read (its bucket lookup is the cost: most
+  //! of the 26 neighbours of a query near the surface are).
+  void by_rings(int k) {
+    for (int ring = 0; ring <= k; ++ring) {
+      gaps.add_ring(ring);
+      for (int dz = -ring; dz <= ring; ++dz) {
+        const float gz2 = gaps.at(2, dz);
+        if (gz2 > best_d2) continue;
+        const bool z_face = dz == -ring || dz == ring;
+        for (int dy = -ring; dy <= ring; ++dy) {
+          const float gyz2 = gz2 + gaps.at(1, dy);
+          if (gyz2 > best_d2) continue;
+          if (z_face || dy == -ring || dy == ring) {
+            for (int dx = -ring; dx <= ring; ++dx) scan_cell(dx, dy, dz, gyz2);
+          } else {  // inside the ring's cube: only its two x faces belong to the ring
+            scan_cell(-ring, dy, dz, gyz2);
+            scan_cell(ring, dy, dz, gyz2);
+          }
+        }
+      }
+      const float reach = float(ring) * cell_m;
+      if (best_e != kNone && best_d2 <= reach * reach) return;
+    }
+  }
+
+  //! The same cells as by_rings(k) (those within k cells of q's), in blocks of 3x3x3 cells centred
+  //! on q's cell + 3 (bx, by, bz), by rings of blocks: a block whose grid_near bit is clear holds no
+  //! point and costs one bit instead of 27 bucket lookups. For wide radii (k >= 2), where a query
+  //! that finds nothing reads every cell of its ball (k = 8: ~2,000).
+  void by_blocks(int k) {
+    for (int ring = 0; ring <= k; ++ring) gaps.add_ring(ring);
+    const int last_ring = (k + 1) / 3;  // blocks reaching into [-k, k]: 3 |b| - 1 <= k
+    for (int ring = 0; ring <= last_ring; ++ring) {
+      for (int bz = -ring; bz <= ring; ++bz) {
+        const float gz2 = block_gap2(2, bz);
+        if (gz2 > best_d2) continue;
+        const bool z_face = bz == -ring || bz == ring;
+        for (int by = -ring; by <= ring; ++by) {
+          const float gyz2 = gz2 + block_gap2(1, by);
+          if (gyz2 > best_d2) continue;
+          const int step = (z_face || by == -ring || by == ring || ring == 0) ? 1 : 2 * ring;
+          for (int bx = -ring; bx <= ring; bx += step) scan_block(bx, by, bz, k, gyz2);
+        }
+      }
+      // A block of ring R+1 starts 3 R + 2 cells out: its points are at least 3 R + 1 cells away.
+      const float reach = float(3 * ring + 1) * cell_m;
+      if (best_e != kNone && best_d2 <= reach * reach) return;
+    }
+  }
+
+ private:
+  //! Squared gap along one axis from q to the block b blocks away (its nearest cell's).
+  float block_gap2(int axis, int b3) const { return b3 > 0 ? gaps.at(axis, 3 * b3 - 1) : (b3 < 0 ? gaps.at(axis, 3 * b3 + 1) : 0.0f); }
+
+  void scan_block(int bx, int by, int bz, int k, float gyz2) {
+    if (gyz2 + block_gap2(0, bx) > best_d2) return;
+    if (!block_may_hold_points(3 * bx, 3 * by, 3 * bz)) return;
+    const auto lo = [k](int b3) { return 3 * b3 - 1 < -k ? -k : 3 * b3 - 1; };
+    const auto hi = [k](int b3) { return 3 * b3 + 1 > k ? k : 3 * b3 + 1; };
+    for (int dz = lo(bz); dz <= hi(bz); ++dz) {
+      const float gz2 = gaps.at(2, dz);
+      if (gz2 > best_d2) continue;
+      for (int dy = lo(by); dy <= hi(by); ++dy) {
+        const float cyz2 = gz2 + gaps.at(1, dy);
+        if (cyz2 > best_d2) continue;
+        for (int dx = lo(bx); dx <= hi(bx); ++dx) scan_cell(dx, dy, dz, cyz2);
+      }
+    }
+  }
+};
+
 //! Calls f(j, position of j) for every scene point j hashed into the cells within k cells (per
 //! axis) of p's cell; candidates only (hash collisions included): the caller checks the distance.
 //! \param b the localiser's buffers  \param grid_inv 1 / cell edge  \param k cells each side
