@@ -119,9 +119,6 @@ TEST(Localize, CorruptModelIsRejectedAtStartUp) {
                       index) == Status::kCapacityExceeded);
 }
 
-// A cloud file with garbage coordinates (finite, far beyond any cell): those points are skipped
-// like non-finite ones, and the rest is localised as without them (the int32 cell index must not
-// overflow: UBSan checks it).
 TEST(Localize, GridNearestEqualsBruteForceAtEveryRadius) {
   // Surface-like points (a plane and a sphere cap, ~1 mm apart, as a fused surface) and queries on,
   // near and far from them, radii from half a cell to 9 cells: the ring search (k <= 1, with the
@@ -162,22 +159,20 @@ TEST(Localize, GridNearestEqualsBruteForceAtEveryRadius) {
       }
     }
     const int k = int(std::ceil(r / cell));
-    NearestSearch blocks(b, q, cell_pos(q, 1.0f / cell), cell, r * r), rings(b, q, cell_pos(q, 1.0f / cell), cell, r * r);
-    if (k <= 1) {
-      if (blocks.block_may_hold_points(0, 0, 0)) blocks.by_rings(k);
-    } else {
-      blocks.by_blocks(k);
-    }
+    const CellPos cp = cell_pos(q, 1.0f / cell);
+    NearestSearch as_localiser(b, q, cp, cell, r * r), rings(b, q, cp, cell, r * r);
+    as_localiser.run(k);
     rings.by_rings(k);
-    for (const NearestSearch* s : {&blocks, &rings}) {
-      const int32_t got = s->best_e == NearestSearch::kNone ? -1 : int32_t(b.grid_index[s->best_e]);
-      LONGS_EQUAL(want, got);
-    }
+    LONGS_EQUAL(want, as_localiser.found());
+    LONGS_EQUAL(want, rings.found());
     (want >= 0 ? found : empty)++;
   }
   CHECK(found > 1000 && empty > 1000);  // both outcomes exercised
 }
 
+// A cloud file with garbage coordinates (finite, far beyond any cell): those points are skipped
+// like non-finite ones, and the rest is localised as without them (the int32 cell index must not
+// overflow: UBSan checks it).
 TEST(Localize, SceneSkipsPointsBeyondTheWorkspace) {
   Localizer loc;
   CHECK(loc.init(buffers()) == Status::kOk);

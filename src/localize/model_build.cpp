@@ -11,11 +11,10 @@ namespace edgefuse {
 
 Status Localizer::init(const LocalizeBuffers& buffers) {
   if (!buffers.models || !buffers.model_points || !buffers.ppf_points || !buffers.ppf_entries ||
-      !buffers.ppf_buckets || !buffers.scene || !buffers.scratch || !buffers.grid_index || !buffers.grid_buckets || !buffers.grid_near ||
-      !buffers.grid_points || !buffers.sample || !buffers.labels || !buffers.queue || !buffers.votes ||
-      !buffers.candidates || !buffers.verified ||
-      !buffers.results || buffers.models_max <= 0 || buffers.ppf_points_max < 8 ||
-      buffers.model_points_max > buffers.scene_points_max || buffers.ppf_points_max > 65535)
+      !buffers.ppf_buckets || !buffers.scene || !buffers.scratch || !buffers.grid_index || !buffers.grid_buckets ||
+      !buffers.grid_near || !buffers.grid_points || !buffers.sample || !buffers.labels || !buffers.queue ||
+      !buffers.votes || !buffers.candidates || !buffers.verified || !buffers.results || buffers.models_max <= 0 ||
+      buffers.ppf_points_max < 8 || buffers.model_points_max > buffers.scene_points_max || buffers.ppf_points_max > 65535)
     return Status::kInvalidArgument;
   b_ = buffers;
   model_count_ = 0;

@@ -91,15 +91,9 @@ int32_t Localizer::nearest(const Vec3f& q, float radius_m, float& dist2) const {
   const CellPos cp = cell_pos(q, grid_inv_);
   const int k = int(std::ceil(radius_m * grid_inv_));
   NearestSearch search(b_, q, cp, grid_cell_m_, radius_m * radius_m);
-  if (k <= 1) {
-    // A search within one ring of q's cell finds nothing when no cell there holds a point (the bit
-    // of q's bucket is clear): ~40 % of the queries of the localiser's ICP and verification.
-    if (search.block_may_hold_points(0, 0, 0)) search.by_rings(k);
-  } else {
-    search.by_blocks(k);
-  }
+  search.run(k);
   dist2 = search.best_d2;
-  return search.best_e == NearestSearch::kNone ? -1 : int32_t(b_.grid_index[search.best_e]);
+  return search.found();
 }
 
 void Localizer::for_each_within(const Vec3f& q, float radius_m, int32_t label) const {
